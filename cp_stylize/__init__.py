@@ -1,0 +1,16 @@
+"""cp_stylize: painterly and denoising filters on curved surfaces with the closest point method.
+
+The numerical core (this package, except :mod:`cp_stylize.blender`) needs only
+NumPy and SciPy.  Public API:
+
+- surfaces: :class:`Sphere`, :class:`Torus`;
+- the computational band: :class:`Band` (closest points, extension E, Laplacian L);
+- surface heat flow: :func:`heat`.
+"""
+
+from .band import Band, band_width
+from .heat import heat
+from .surfaces import Sphere, Torus
+
+__all__ = ["Band", "Sphere", "Torus", "band_width", "heat"]
+__version__ = "0.1.0"

@@ -1,0 +1,37 @@
+"""Command line: ``python -m cp_stylize {demo,bench} ...``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _demo(args):
+    try:
+        from .blender import demo
+    except ImportError as err:
+        sys.exit(f"the demo needs Blender's Python module (pip install -r requirements.txt): {err}")
+    demo.run(args.out)
+
+
+def _bench(args):
+    from . import bench
+
+    bench.run(quick=args.quick)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m cp_stylize", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("demo", help="stylize a textured object in a Blender scene and render it")
+    p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
+    p.set_defaults(func=_demo)
+    p = sub.add_parser("bench", help="time the core's steps on reference surfaces")
+    p.add_argument("--quick", action="store_true", help="smaller grids, for a smoke run")
+    p.set_defaults(func=_bench)
+    args = parser.parse_args(argv)
+    args.func(args)
+
+
+if __name__ == "__main__":
+    main()

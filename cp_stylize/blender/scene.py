@@ -1,0 +1,105 @@
+"""Scene building blocks shared by the demo and the tests: textures, materials, renders."""
+
+import os
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from . import images
+
+
+def reset():
+    """An empty scene with Blender's factory settings."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def studio_photo_path(name="forest"):
+    """Path of one of the equirectangular photographs that ship with Blender."""
+    path = os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world", f"{name}.exr")
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"Blender's studio light {name!r} is not at {path}")
+    return path
+
+
+def photo_texture(name="forest"):
+    """A Blender studio-light panorama, tone-mapped to sRGB values in [0, 1]: (H, W, 3) float32."""
+    from ..texture import linear_to_srgb
+
+    image = bpy.data.images.load(studio_photo_path(name), check_existing=False)
+    try:
+        rgb = images.image_to_array(image)[..., :3].astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)
+    luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
+    rgb = rgb / max(np.percentile(luminance, 99.0), 1e-6)
+    return linear_to_srgb(rgb).astype(np.float32)
+
+
+def new_material(name, image):
+    """A material whose Principled BSDF takes its Base Color from an Image Texture of ``image``."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:  # Blender 4.x creates the node tree on request
+        material.use_nodes = True
+    tree = material.node_tree
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.location = (bsdf.location.x - 350, bsdf.location.y)
+    tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+    bsdf.inputs["Roughness"].default_value = 0.8
+    return material
+
+
+def add_uv_sphere(name="Globe", radius=1.0, material=None, segments=96, rings=48):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius)
+    obj = bpy.context.active_object
+    obj.name = name
+    bpy.ops.object.shade_smooth()
+    if material is not None:
+        obj.data.materials.append(material)
+    return obj
+
+
+def setup_render(resolution=(480, 360), samples=16):
+    """Cycles on the CPU, a camera, a key light and a grey world, framing the origin."""
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.view_settings.view_transform = "Standard"
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("World")
+    scene.world.color = (0.25, 0.25, 0.27)
+    if scene.camera is None:
+        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+        light = bpy.data.objects.new("Key", bpy.data.lights.new("Key", type="SUN"))
+        light.data.energy = 3.0
+        scene.collection.objects.link(light)
+        light.rotation_euler = (0.9, 0.0, 0.6)
+    return scene
+
+
+def frame_objects(objects, margin=1.15):
+    """Point the scene camera at the objects' bounding sphere from the front and slightly above."""
+    corners = np.array([tuple(o.matrix_world @ Vector(c)) for o in objects for c in o.bound_box])
+    centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+    radius = 0.5 * np.linalg.norm(corners.max(axis=0) - corners.min(axis=0))
+    cam = bpy.context.scene.camera
+    direction = Vector((0.0, -1.0, 0.35)).normalized()
+    distance = float(margin * radius / np.sin(0.5 * cam.data.angle))
+    cam.location = Vector(centre) + distance * direction
+    cam.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
+
+
+def render(path):
+    scene = bpy.context.scene
+    scene.render.filepath = os.path.abspath(path)
+    bpy.ops.render.render(write_still=True)
+    return path

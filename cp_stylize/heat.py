@@ -1,0 +1,83 @@
+"""Surface heat flow with the Ruuth-Merriman closest point iteration.
+
+Evolve with the 7-point Laplacian, then extend by interpolation at the closest
+points (paper, eqs. (46) and (48))::
+
+    w = v + tau * L v
+    v = E w
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["heat", "time_steps"]
+
+#: Default explicit step for the heat solves, as a fraction of h^2.  The
+#: 7-point forward Euler step is stable up to h^2 / 6.
+HEAT_CFL = 0.1
+
+
+def time_steps(t, dt):
+    """Split the time ``t`` into ``n`` equal steps of at most ``dt``: returns ``(n, t / n)``."""
+    t, dt = float(t), float(dt)
+    if not np.isfinite(t) or t < 0:
+        raise ValueError(f"time must be a non-negative number, got {t!r}")
+    if not np.isfinite(dt) or dt <= 0:
+        raise ValueError(f"time step must be a positive number, got {dt!r}")
+    if t == 0:
+        return 0, 0.0
+    n = max(1, math.ceil(t / dt * (1 - 1e-12)))
+    return n, t / n
+
+
+def heat(band, u0, t, *, dt=None, progress=None):
+    """Solve the heat equation ``u_t = Laplace-Beltrami(u)`` on the band's surface to time ``t``.
+
+    Parameters
+    ----------
+    band : Band
+        The computational band.
+    u0 : ndarray, shape (N,) or (N, k)
+        Initial values at the band points, given as a closest point extension
+        (each point carries the value at its closest point, e.g. ``f(band.cp)``).
+        float64 stays float64; other types compute in float32.
+    t : float
+        Stop time, in the surface's units squared.
+    dt : float, optional
+        Largest time step; default ``0.1 * h**2`` (the explicit step is stable
+        below ``h**2 / 6``).  The steps are equal and end exactly at ``t``.
+    progress : callable, optional
+        Called as ``progress(fraction)`` after each step.  An exception it
+        raises propagates and stops the solve.
+
+    Returns
+    -------
+    ndarray
+        The solution at time ``t``, same shape as ``u0``.
+
+    Notes
+    -----
+    Ruuth-Merriman iteration (paper, eq. (48)):
+
+    .. math:: v^{n+1} = E\\,(v^n + \\tau L v^n)
+
+    It is second-order accurate in ``h`` for ``tau`` proportional to ``h^2``.
+    """
+    u0 = band._check_values(u0)
+    if dt is None:
+        dt = HEAT_CFL * band.h**2
+    n, tau = time_steps(t, dt)
+    E = band.extension_matrix(u0.dtype)
+    L = band.laplacian_matrix(u0.dtype)
+    tau = u0.dtype.type(tau)
+    # channels as contiguous rows: SciPy's sparse products are fastest one vector at a time
+    rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
+    for step in range(n):
+        for j in range(len(rows)):
+            rows[j] = E @ (rows[j] + tau * (L @ rows[j]))
+        if progress is not None:
+            progress((step + 1) / n)
+    return rows.T.copy() if u0.ndim == 2 else rows[0]

@@ -1,0 +1,171 @@
+"""Analytic surfaces given by their closest point functions.
+
+A surface, for the closest point method, is just its closest point function
+(paper, section 4.1): ``closest_point(x) -> (cp, dist)`` maps points of the
+embedding space to their nearest surface points.  Conventions, as in
+cp_matrices: ``dist`` is the signed distance, negative inside a closed surface.
+
+Every surface here also gives
+
+- ``normal(cp)``: the outward unit normal at surface points;
+- ``bounds()``: an axis-aligned box ``(lo, hi)`` that holds the surface;
+- ``area``: its surface area;
+- ``point(s, t)``: a parametrisation, used to draw flattened maps of surface
+  functions (``s`` and ``t`` in [0, 1)), and its inverse ``parameters(p)``.
+
+What is not checked: points exactly on the medial axis (the sphere's centre,
+the torus axis) have no unique closest point; an arbitrary one of the closest
+points is returned there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["Sphere", "Torus"]
+
+
+def _as_points(x):
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {x.shape}")
+    return x
+
+
+def _unit_rows(v, fallback):
+    """Normalise rows of ``v``; rows of zero length become ``fallback``."""
+    n = np.linalg.norm(v, axis=1)
+    zero = n == 0.0
+    if np.any(zero):
+        v = v.copy()
+        v[zero] = fallback
+        n = np.where(zero, 1.0, n)
+    return v / n[:, None], n
+
+
+class Sphere:
+    """The sphere of radius ``radius`` about ``center``.
+
+    Parameters
+    ----------
+    radius : float
+        Positive radius.
+    center : sequence of 3 floats
+        Centre of the sphere.
+
+    Notes
+    -----
+    ``cp(x) = c + R (x - c) / |x - c|`` and ``dist = |x - c| - R``.
+    ``point(s, t)`` is the longitude-latitude parametrisation: longitude
+    ``2 pi s - pi``, latitude ``pi t - pi/2`` (the layout of an equirectangular
+    image and of Blender's UV sphere).
+    """
+
+    def __init__(self, radius=1.0, center=(0.0, 0.0, 0.0)):
+        radius = float(radius)
+        if not np.isfinite(radius) or radius <= 0:
+            raise ValueError(f"radius must be a positive number, got {radius!r}")
+        self.radius = radius
+        self.center = np.asarray(center, dtype=np.float64).reshape(3)
+
+    def __repr__(self):
+        return f"Sphere(radius={self.radius!r}, center={tuple(self.center.tolist())!r})"
+
+    @property
+    def area(self):
+        return 4.0 * np.pi * self.radius**2
+
+    def bounds(self):
+        return self.center - self.radius, self.center + self.radius
+
+    def closest_point(self, x):
+        x = _as_points(x)
+        d = x - self.center
+        u, n = _unit_rows(d, (0.0, 0.0, 1.0))
+        return self.center + self.radius * u, n - self.radius
+
+    def normal(self, cp):
+        return _unit_rows(_as_points(cp) - self.center, (0.0, 0.0, 1.0))[0]
+
+    def point(self, s, t):
+        lon = 2.0 * np.pi * np.asarray(s, dtype=np.float64) - np.pi
+        lat = np.pi * np.asarray(t, dtype=np.float64) - 0.5 * np.pi
+        p = np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=-1)
+        return self.center + self.radius * p
+
+    def parameters(self, p):
+        """``(s, t)`` of surface points ``p`` (M, 3): the inverse of :meth:`point`."""
+        d = _as_points(p) - self.center
+        lon = np.arctan2(d[:, 1], d[:, 0])
+        lat = np.arcsin(np.clip(d[:, 2] / np.linalg.norm(d, axis=1).clip(1e-300), -1.0, 1.0))
+        return (lon + np.pi) / (2.0 * np.pi), (lat + 0.5 * np.pi) / np.pi
+
+
+class Torus:
+    """The torus ``(R - sqrt(x^2 + y^2))^2 + z^2 = r^2`` about ``center`` (paper, eq. (54)).
+
+    It lies in the xy-plane with axis z.
+
+    Parameters
+    ----------
+    R : float
+        Distance from the axis to the centre of the tube.
+    r : float
+        Radius of the tube, ``0 < r < R``.
+    center : sequence of 3 floats
+        Centre of the torus.
+
+    Notes
+    -----
+    With ``q`` the nearest point of the core circle, ``cp(x) = q + r (x - q) / |x - q|``
+    and ``dist = |x - q| - r``.  ``point(s, t)`` takes ``s`` around the axis and
+    ``t`` around the tube (``t = 0`` on the outer equator).
+    """
+
+    def __init__(self, R=1.0, r=0.4, center=(0.0, 0.0, 0.0)):
+        R, r = float(R), float(r)
+        if not (np.isfinite(R) and np.isfinite(r)) or not 0 < r < R:
+            raise ValueError(f"the torus needs 0 < r < R, got R={R!r}, r={r!r}")
+        self.R, self.r = R, r
+        self.center = np.asarray(center, dtype=np.float64).reshape(3)
+
+    def __repr__(self):
+        return f"Torus(R={self.R!r}, r={self.r!r}, center={tuple(self.center.tolist())!r})"
+
+    @property
+    def area(self):
+        return 4.0 * np.pi**2 * self.R * self.r
+
+    def bounds(self):
+        e = np.array([self.R + self.r, self.R + self.r, self.r])
+        return self.center - e, self.center + e
+
+    def _core(self, d):
+        """Nearest points of the core circle to the offsets ``d`` from the centre."""
+        planar = np.column_stack([d[:, 0], d[:, 1], np.zeros(len(d))])
+        u, _ = _unit_rows(planar, (1.0, 0.0, 0.0))
+        return self.R * u
+
+    def closest_point(self, x):
+        d = _as_points(x) - self.center
+        q = self._core(d)
+        u, n = _unit_rows(d - q, (0.0, 0.0, 1.0))
+        return self.center + q + self.r * u, n - self.r
+
+    def normal(self, cp):
+        d = _as_points(cp) - self.center
+        return _unit_rows(d - self._core(d), (0.0, 0.0, 1.0))[0]
+
+    def point(self, s, t):
+        phi = 2.0 * np.pi * np.asarray(s, dtype=np.float64)
+        theta = 2.0 * np.pi * np.asarray(t, dtype=np.float64)
+        rad = self.R + self.r * np.cos(theta)
+        p = np.stack([rad * np.cos(phi), rad * np.sin(phi), self.r * np.sin(theta)], axis=-1)
+        return self.center + p
+
+    def parameters(self, p):
+        """``(s, t)`` of surface points ``p`` (M, 3): the inverse of :meth:`point`."""
+        d = _as_points(p) - self.center
+        phi = np.arctan2(d[:, 1], d[:, 0])
+        theta = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1]) - self.R)
+        return np.mod(phi / (2.0 * np.pi), 1.0), np.mod(theta / (2.0 * np.pi), 1.0)

@@ -1,0 +1,137 @@
+"""Images in and out of the band: bilinear lookup, parametric maps, PNG files.
+
+Image convention (Blender's): an image is a float array of shape (H, W, C)
+whose row 0 is the bottom row, so texture coordinate ``(u, v)`` in [0, 1]^2
+lands at column ``u * W - 0.5`` and row ``v * H - 0.5`` (texel centres at
+half-integers).
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+
+__all__ = ["bilinear", "sample_map", "bake_map", "write_png", "srgb_to_linear",
+           "linear_to_srgb"]
+
+
+def _check_image(image):
+    image = np.asarray(image)
+    if image.ndim == 2:
+        image = image[:, :, None]
+    if image.ndim != 3 or image.shape[0] < 1 or image.shape[1] < 1:
+        raise ValueError(f"image must have shape (H, W) or (H, W, C), got {image.shape}")
+    if not np.issubdtype(image.dtype, np.floating):
+        raise TypeError(f"image must hold floats in [0, 1], got dtype {image.dtype}")
+    return image
+
+
+def bilinear(image, uv, *, wrap=("clamp", "clamp")):
+    """Bilinear lookup of ``image`` (H, W, C) at texture coordinates ``uv`` (M, 2).
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W, C) or (H, W)
+        Float image, row 0 at the bottom (``v = 0``).
+    uv : ndarray, shape (M, 2)
+        Texture coordinates.
+    wrap : pair of {"clamp", "repeat"}
+        What happens beyond the edge texel centres, for ``u`` and ``v``.
+
+    Returns
+    -------
+    ndarray, shape (M, C)
+    """
+    image = _check_image(image)
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[1] != 2:
+        raise ValueError(f"uv must have shape (M, 2), got {uv.shape}")
+    h, w = image.shape[:2]
+    idx, frac = [], []
+    for coord, n, mode in ((uv[:, 0], w, wrap[0]), (uv[:, 1], h, wrap[1])):
+        x = coord * n - 0.5
+        i0 = np.floor(x)
+        f = x - i0
+        i0 = i0.astype(np.int64)
+        i1 = i0 + 1
+        if mode == "repeat":
+            i0, i1 = np.mod(i0, n), np.mod(i1, n)
+        elif mode == "clamp":
+            i0, i1 = np.clip(i0, 0, n - 1), np.clip(i1, 0, n - 1)
+        else:
+            raise ValueError(f"wrap must be 'clamp' or 'repeat', got {mode!r}")
+        idx.append((i0, i1))
+        frac.append(f[:, None])
+    (c0, c1), (r0, r1) = idx
+    fu, fv = frac
+    top = image[r1, c0] * (1 - fu) + image[r1, c1] * fu
+    bottom = image[r0, c0] * (1 - fu) + image[r0, c1] * fu
+    return (bottom * (1 - fv) + top * fv).astype(image.dtype, copy=False)
+
+
+def texel_centres(height, width):
+    """Texture coordinates ``(u, v)`` of all texel centres, each of shape (height, width)."""
+    v, u = np.meshgrid((np.arange(height) + 0.5) / height, (np.arange(width) + 0.5) / width, indexing="ij")
+    return u, v
+
+
+def sample_map(band, image, *, wrap=("repeat", "clamp")):
+    """Values at the band's closest points of an image mapped by the surface parametrisation.
+
+    The surface must have ``parameters(p) -> (s, t)`` (for example
+    :class:`~cp_stylize.Sphere`, whose map is equirectangular).
+
+    Returns
+    -------
+    ndarray, shape (N, C), float32
+    """
+    s, t = band.surface.parameters(band.cp)
+    return bilinear(_check_image(image).astype(np.float32, copy=False), np.column_stack([s, t]), wrap=wrap)
+
+
+def bake_map(band, values, height, width):
+    """Image (height, width, C) of band ``values`` at the surface points ``point(s, t)`` of its texels."""
+    u, v = texel_centres(height, width)
+    points = band.surface.point(u.ravel(), v.ravel())
+    out = band.interpolate(values, points)
+    return out.reshape(height, width, -1)
+
+
+def srgb_to_linear(c):
+    """sRGB-encoded values in [0, 1] to linear light."""
+    c = np.asarray(c)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(c):
+    """Linear light to sRGB-encoded values in [0, 1] (clipped)."""
+    c = np.clip(np.asarray(c), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
+def _to_bytes(image):
+    image = _check_image(image)
+    if image.shape[2] not in (1, 3, 4):
+        raise ValueError(f"a PNG needs 1, 3 or 4 channels, got {image.shape[2]}")
+    data = np.round(np.clip(image, 0.0, 1.0) * 255).astype(np.uint8)
+    return data[::-1]  # PNG rows run top to bottom
+
+
+def write_png(path, image):
+    """Write a float image (H, W, C) in [0, 1], row 0 at the bottom, as an 8-bit PNG."""
+    data = _to_bytes(image)
+    h, w, c = data.shape
+    colour_type = {1: 0, 3: 2, 4: 6}[c]
+    raw = b"".join(b"\x00" + data[r].tobytes() for r in range(h))
+
+    def chunk(kind, payload):
+        return (struct.pack(">I", len(payload)) + kind + payload
+                + struct.pack(">I", zlib.crc32(kind + payload) & 0xFFFFFFFF))
+
+    png = (b"\x89PNG\r\n\x1a\n"
+           + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour_type, 0, 0, 0))
+           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    with open(path, "wb") as f:
+        f.write(png)

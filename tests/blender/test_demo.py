@@ -1,0 +1,62 @@
+"""The main job, ``python -m cp_stylize demo``, end to end."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
+
+from blender_support import fresh_blender  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+
+def _pixels(path):
+    image = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        w, h = image.size
+        buf = np.empty(w * h * 4, dtype=np.float32)
+        image.pixels.foreach_get(buf)
+        return buf.reshape(h, w, 4)[..., :3]
+    finally:
+        bpy.data.images.remove(image)
+
+
+@pytest.fixture(scope="module")
+def demo_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    fresh_blender(f"import sys; from cp_stylize.__main__ import main; main(['demo', '--out', {str(out)!r}])")
+    return out
+
+
+def test_demo_writes_its_four_files(demo_out):
+    for name in ("demo.blend", "before.png", "after.png", "texture.png"):
+        assert (demo_out / name).stat().st_size > 1000, name
+
+
+def test_renders_show_the_textured_object_and_its_change(demo_out):
+    before, after = _pixels(demo_out / "before.png"), _pixels(demo_out / "after.png")
+    h, w, _ = before.shape
+    background = before[2, 2]
+    centre = before[h // 2 - 20:h // 2 + 20, w // 2 - 20:w // 2 + 20]
+    # the object covers the centre and is textured there: it is not the background and not flat
+    assert np.abs(centre - background).max() > 0.1
+    assert centre.std() > 0.03
+    # smoothing removed detail: the after render changed, and its local contrast dropped
+    assert np.abs(after - before).mean() > 0.005
+    detail = lambda img: np.abs(np.diff(img[h // 4:3 * h // 4, w // 4:3 * w // 4], axis=1)).mean()
+    assert detail(after) < 0.7 * detail(before)
+
+
+def test_saved_file_holds_the_stylized_material_and_keeps_the_original(demo_out):
+    code = f"""
+import bpy
+bpy.ops.wm.open_mainfile(filepath={str(demo_out / 'demo.blend')!r})
+obj = bpy.data.objects['Globe']
+mat = obj.data.materials[0]
+assert mat.name == 'Demo_stylized', mat.name
+tex = next(n for n in mat.node_tree.nodes if n.type == 'TEX_IMAGE')
+assert tex.image.name == 'Globe_stylized' and tex.image.packed_file is not None
+orig = bpy.data.materials['Demo']
+assert next(n for n in orig.node_tree.nodes if n.type == 'TEX_IMAGE').image.name == 'demo_texture'
+"""
+    fresh_blender(code)
