@@ -161,9 +161,13 @@ class Band:
         Number of band points ``N``.
     surface : object
         The surface the band was built from.
+    face, bary : ndarray or None
+        For triangle meshes: the index of the face that holds each closest
+        point (N,) and its barycentric coordinates there (N, 3); None otherwise.
     """
 
-    def __init__(self, surface, h, ijk, cp, dist, *, width, stencil="laplacian", degree=DEGREE):
+    def __init__(self, surface, h, ijk, cp, dist, *, width, stencil="laplacian", degree=DEGREE,
+                 face=None, bary=None):
         self.surface = surface
         self.h = float(h)
         ijk = np.asarray(ijk, dtype=np.int64)
@@ -171,6 +175,8 @@ class Band:
         self.ijk = np.ascontiguousarray(ijk[order])
         self.cp = np.ascontiguousarray(np.asarray(cp, dtype=np.float64)[order])
         self.dist = np.ascontiguousarray(np.asarray(dist, dtype=np.float64)[order])
+        self.face = None if face is None else np.ascontiguousarray(np.asarray(face, dtype=np.int64)[order])
+        self.bary = None if bary is None else np.ascontiguousarray(np.asarray(bary, dtype=np.float64)[order])
         self.width = float(width)
         self.stencil = stencil
         self.degree = int(degree)
@@ -193,8 +199,10 @@ class Band:
         surface : object
             Anything with ``closest_point(x) -> (cp, dist)`` and ``bounds()``,
             such as :class:`~cp_stylize.Sphere` or :class:`~cp_stylize.Torus`.
-            A surface may offer ``band_candidates(h, width)`` returning integer
-            grid coordinates to test, instead of scanning its bounding box.
+            A surface may offer ``band_candidates(h, width)`` yielding chunks
+            of integer grid coordinates (K, 3) to test, instead of scanning its
+            bounding box, and ``closest_point_on_faces(x) -> (cp, dist, face,
+            bary)`` (triangle meshes), which the band then uses and keeps.
         h : float
             Grid spacing, in the surface's units.
         stencil : {"laplacian", "anisotropic"}
@@ -217,18 +225,18 @@ class Band:
         if safety < 1:
             raise ValueError(f"safety factor must be >= 1, got {safety!r}")
         width = band_width(h, degree, stencil) * safety
-        ijk_parts, cp_parts, dist_parts = [], [], []
+        on_faces = getattr(surface, "closest_point_on_faces", None)
+        parts = []
         for ijk in _candidates(surface, h, width):
-            cp, dist = surface.closest_point(h * ijk)
-            keep = np.abs(dist) <= width
-            ijk_parts.append(ijk[keep])
-            cp_parts.append(cp[keep])
-            dist_parts.append(dist[keep])
-        ijk = np.concatenate(ijk_parts) if ijk_parts else np.zeros((0, 3), np.int64)
-        if len(ijk) == 0:
+            found = on_faces(h * ijk) if on_faces is not None else surface.closest_point(h * ijk)
+            keep = np.abs(found[1]) <= width
+            parts.append((ijk[keep],) + tuple(a[keep] for a in found))
+        if not parts or sum(len(p[0]) for p in parts) == 0:
             raise ValueError(f"the band of {surface!r} at h={h!r} holds no grid point")
-        return cls(surface, h, ijk, np.concatenate(cp_parts), np.concatenate(dist_parts),
-                   width=width, stencil=stencil, degree=degree)
+        ijk, cp, dist, *faces = (np.concatenate(a) for a in zip(*parts))
+        face, bary = faces if faces else (None, None)
+        return cls(surface, h, ijk, cp, dist, width=width, stencil=stencil, degree=degree,
+                   face=face, bary=bary)
 
     def __repr__(self):
         return f"Band(size={self.size}, h={self.h!r}, width={self.width:.4g}, stencil={self.stencil!r})"
