@@ -5,12 +5,14 @@ NumPy and SciPy.  Public API:
 
 - surfaces: :class:`Sphere`, :class:`Torus`;
 - the computational band: :class:`Band` (closest points, extension E, Laplacian L);
-- surface heat flow: :func:`heat`.
+- surface heat flow: :func:`heat`;
+- anisotropic and nonlinear surface diffusion: :func:`diffuse` (modes :data:`MODES`).
 """
 
 from .band import Band, band_width
+from .diffusion import MODES, diffuse
 from .heat import heat
 from .surfaces import Sphere, Torus
 
-__all__ = ["Band", "Sphere", "Torus", "band_width", "heat"]
+__all__ = ["Band", "MODES", "Sphere", "Torus", "band_width", "diffuse", "heat"]
 __version__ = "0.1.0"

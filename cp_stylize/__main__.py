@@ -14,6 +14,12 @@ def _demo(args):
     demo.run(args.out)
 
 
+def _paper(args):
+    from . import paper
+
+    paper.run(args.out, h=args.h)
+
+
 def _bench(args):
     from . import bench
 
@@ -26,6 +32,10 @@ def main(argv=None):
     p = sub.add_parser("demo", help="stylize a textured object in a Blender scene and render it")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
     p.set_defaults(func=_demo)
+    p = sub.add_parser("paper", help="redraw the paper's experiments (Fig. 4 and a Fig. 5-like CED) as PNGs")
+    p.add_argument("--out", default="paper_out", help="output folder (default: paper_out)")
+    p.add_argument("--h", type=float, default=0.0125, help="grid spacing (default: the paper's 0.0125)")
+    p.set_defaults(func=_paper)
     p = sub.add_parser("bench", help="time the core's steps on reference surfaces")
     p.add_argument("--quick", action="store_true", help="smaller grids, for a smoke run")
     p.set_defaults(func=_bench)

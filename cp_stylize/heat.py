@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-__all__ = ["heat", "time_steps"]
+__all__ = ["heat", "heat_rows", "time_steps"]
 
 #: Default explicit step for the heat solves, as a fraction of h^2.  The
 #: 7-point forward Euler step is stable up to h^2 / 6.
@@ -67,17 +67,23 @@ def heat(band, u0, t, *, dt=None, progress=None):
     It is second-order accurate in ``h`` for ``tau`` proportional to ``h^2``.
     """
     u0 = band._check_values(u0)
+    # channels as contiguous rows: SciPy's sparse products are fastest one vector at a time
+    rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
+    heat_rows(band, rows, t, dt=dt, progress=progress)
+    return rows.T.copy() if u0.ndim == 2 else rows[0]
+
+
+def heat_rows(band, rows, t, *, dt=None, progress=None):
+    """:func:`heat` in place on band values stored as rows (k, N) of float32 or float64."""
     if dt is None:
         dt = HEAT_CFL * band.h**2
     n, tau = time_steps(t, dt)
-    E = band.extension_matrix(u0.dtype)
-    L = band.laplacian_matrix(u0.dtype)
-    tau = u0.dtype.type(tau)
-    # channels as contiguous rows: SciPy's sparse products are fastest one vector at a time
-    rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
+    E = band.extension_matrix(rows.dtype)
+    L = band.laplacian_matrix(rows.dtype)
+    tau = rows.dtype.type(tau)
     for step in range(n):
         for j in range(len(rows)):
             rows[j] = E @ (rows[j] + tau * (L @ rows[j]))
         if progress is not None:
             progress((step + 1) / n)
-    return rows.T.copy() if u0.ndim == 2 else rows[0]
+    return rows

@@ -1,0 +1,110 @@
+"""Finite difference operators in the band: central gradients and ``div(G grad)`` (paper, eq. (51)).
+
+Both act on band values and have rows only for the band's inner points (the
+points the extension E reads); other rows are empty, since E overwrites those
+points.  The band must support the 19-point stencil (``stencil="anisotropic"``)
+for :class:`DivergenceOperator`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["gradient_matrices", "DivergenceOperator", "TENSOR_COMPONENTS"]
+
+#: Order of the six independent components of a symmetric 3x3 tensor field.
+TENSOR_COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+_AXIS = np.eye(3, dtype=np.int64)
+
+
+def _rows_csr(band, rows, cols, data, per_row, dtype):
+    """CSR (N, N) with ``per_row`` entries in each of ``rows`` (sorted) and none elsewhere."""
+    counts = np.zeros(band.size, dtype=np.int64)
+    counts[rows] = per_row
+    indptr = np.concatenate([[0], np.cumsum(counts)])
+    return sp.csr_matrix((np.asarray(data, dtype=dtype).ravel(), np.asarray(cols).ravel().astype(np.int32),
+                          indptr), shape=(band.size, band.size))
+
+
+def gradient_matrices(band, dtype=np.float32):
+    """Central differences ``D_a^c v = (v[x + h e_a] - v[x - h e_a]) / 2h`` for a = x, y, z.
+
+    Returns three CSR matrices (N, N) with rows at the band's inner points.
+    """
+    rows = np.flatnonzero(band.inner)
+    nbr = band.neighbors(np.vstack([_AXIS, -_AXIS]))[rows]
+    coef = np.tile([0.5 / band.h, -0.5 / band.h], (len(rows), 1))
+    return tuple(_rows_csr(band, rows, nbr[:, [a, a + 3]], coef, 2, dtype) for a in range(3))
+
+
+class DivergenceOperator:
+    """Assembles ``A(G) v ~ div(G grad v)`` for tensor fields G on the band (paper, eq. (51)).
+
+    For an inner point x, with ``G_ab`` the tensor's components:
+
+    .. math::
+
+        \\sum_a D_a^- \\big( A_a^+ G_{aa}\\, D_a^+ v \\big)
+        + \\sum_{a \\ne b} D_a^c \\big( G_{ab}\\, D_b^c v \\big)
+
+    where ``A_a^+`` averages to the edge centre ``x + h e_a / 2``.  The diagonal
+    terms use compact differences, the mixed ones central differences, giving a
+    19-point stencil whose rows sum to zero (constants are stationary).  With
+    ``G = I`` it is the 7-point Laplacian; with ``G = g I`` it is the
+    Morton-Mayers scheme for Perona-Malik (thesis 002, section 3.3).
+    The sparsity pattern is built once; each call fills in the coefficients.
+    """
+
+    def __init__(self, band, dtype=np.float32):
+        if band.stencil != "anisotropic":
+            raise ValueError("anisotropic diffusion needs a band built with stencil='anisotropic', "
+                             f"got a band with stencil={band.stencil!r}")
+        self.band = band
+        self.dtype = np.dtype(dtype)
+        self.rows = np.flatnonzero(band.inner)
+        diagonals = [(a, b, sa, sb) for a in range(3) for b in range(a + 1, 3) for sa in (1, -1) for sb in (1, -1)]
+        offsets = [np.zeros(3, np.int64)]
+        offsets += [s * _AXIS[a] for a in range(3) for s in (1, -1)]
+        offsets += [sa * _AXIS[a] + sb * _AXIS[b] for a, b, sa, sb in diagonals]
+        self._diagonals = diagonals
+        self.columns = band.neighbors(np.array(offsets))[self.rows]
+        if np.any(self.columns < 0):
+            raise RuntimeError("an inner band point lacks part of its 19-point stencil")
+        self._template = _rows_csr(band, self.rows, self.columns, np.zeros(self.columns.shape), 19, self.dtype)
+
+    def coefficients(self, G):
+        """Stencil weights (n_inner, 19) for a tensor field ``G`` (6, N) in :data:`TENSOR_COMPONENTS` order."""
+        h2 = self.band.h ** 2
+        c = self.columns
+        w = np.empty(c.shape, dtype=np.float64)
+        comp = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
+        for a in range(3):
+            g = G[a]
+            centre = g[c[:, 0]]
+            for j, s in enumerate((1, -1)):
+                w[:, 1 + 2 * a + j] = 0.5 * (centre + g[c[:, 1 + 2 * a + j]]) / h2
+        w[:, 0] = -w[:, 1:7].sum(axis=1)
+        for k, (a, b, sa, sb) in enumerate(self._diagonals):
+            g = G[comp[(a, b)]]
+            at_a = g[c[:, 1 + 2 * a + (0 if sa > 0 else 1)]]
+            at_b = g[c[:, 1 + 2 * b + (0 if sb > 0 else 1)]]
+            w[:, 7 + k] = sa * sb * (at_a + at_b) / (4.0 * h2)
+        return w
+
+    def matrix(self, G):
+        """The CSR matrix A(G) (N, N); rows outside the inner points are empty."""
+        A = self._template.copy()
+        A.data = self.coefficients(G).astype(self.dtype).ravel()
+        return A
+
+    @staticmethod
+    def stable_step(A):
+        """Largest forward Euler step for ``v + tau A v`` by Gershgorin's bound on A's spectrum.
+
+        ``1.9 / max_i sum_j |A_ij|`` (a little under 2 / rho(A)); infinite for A = 0.
+        """
+        absolute = abs(A)
+        bound = np.asarray(absolute.sum(axis=1)).max() if A.nnz else 0.0
+        return np.inf if bound == 0 else 1.9 / bound

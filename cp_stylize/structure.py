@@ -1,0 +1,90 @@
+"""The surface-intrinsic structure tensor (paper, sections 2.2, 2.5 and 3.1, Algorithm 1 steps 2-6).
+
+``J_{sigma,rho}[u] = K_rho * (grad_S u_sigma grad_S u_sigma^T)``, with both
+smoothings done as surface heat solves (to times ``sigma`` and ``rho``), the
+mean over colour channels (eq. (11)), and its reduction to the tangent plane
+``J~ = Q^T J Q`` (eq. (25)), whose eigen-decomposition (eq. (26)) is taken in
+closed form.
+
+Tensor fields are stored as rows (6, N) in the order of
+:data:`~cp_stylize.stencils.TENSOR_COMPONENTS`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .heat import heat_rows
+from .stencils import TENSOR_COMPONENTS
+
+__all__ = ["outer_products", "structure_tensor", "reduce_to_tangent", "eigen_2x2", "full_tensor"]
+
+
+def outer_products(band, channels, gradients):
+    """Mean over channels of ``grad v grad v^T`` at inner points, extended to the band: (6, N).
+
+    ``channels`` are band values as rows (C, N); ``gradients`` the three
+    central difference matrices.  The raw products live on the inner points;
+    the extension E makes them a closest point extension over the whole band.
+    """
+    J0 = np.zeros((6, band.size), dtype=channels.dtype)
+    for v in channels:
+        g = [D @ v for D in gradients]
+        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+            J0[k] += g[a] * g[b]
+    J0 /= len(channels)
+    E = band.extension_matrix(channels.dtype)
+    for k in range(6):
+        J0[k] = E @ J0[k]
+    return J0
+
+
+def structure_tensor(band, channels, sigma, rho, gradients, *, dt, progress=None):
+    """``J_{sigma,rho}`` (6, N) of band values given as rows (C, N) (Algorithm 1, steps 2-4)."""
+    smoothed = channels.copy()
+    report = None if progress is None else (lambda f: progress(0.2 * f))
+    heat_rows(band, smoothed, sigma, dt=dt, progress=report)
+    J = outer_products(band, smoothed, gradients)
+    report = None if progress is None else (lambda f: progress(0.2 + 0.8 * f))
+    heat_rows(band, J, rho, dt=dt, progress=report)
+    return J
+
+
+def full_tensor(J):
+    """Symmetric 3x3 tensors (N, 3, 3) from rows (6, N)."""
+    out = np.empty((J.shape[1], 3, 3), dtype=J.dtype)
+    for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+        out[:, a, b] = out[:, b, a] = J[k]
+    return out
+
+
+def reduce_to_tangent(J, Q):
+    """``J~ = Q^T J Q`` (eq. (25)): returns its entries ``(a, b, d)`` of ``[[a, b], [b, d]]``."""
+    JQ = np.einsum("nij,njk->nik", full_tensor(J), Q)
+    a = np.einsum("ni,ni->n", Q[:, :, 0], JQ[:, :, 0])
+    b = np.einsum("ni,ni->n", Q[:, :, 0], JQ[:, :, 1])
+    d = np.einsum("ni,ni->n", Q[:, :, 1], JQ[:, :, 1])
+    return a, b, d
+
+
+def eigen_2x2(a, b, d):
+    """Closed-form eigen-decomposition of symmetric ``[[a, b], [b, d]]`` (eq. (26)).
+
+    Returns ``mu1 >= mu2`` and the unit eigenvector ``(c1, s1)`` of ``mu1``
+    (across the visual edge).  Where ``mu1 == mu2`` any unit vector is an
+    eigenvector and ``(1, 0)`` is returned; no NaN arises.
+    """
+    half_trace = 0.5 * (a + d)
+    radius = np.hypot(0.5 * (a - d), b)
+    mu1, mu2 = half_trace + radius, half_trace - radius
+    # (mu1 - d, b) and (b, mu1 - a) are both eigenvectors; take the longer one
+    x1, y1 = mu1 - d, b
+    x2, y2 = b, mu1 - a
+    first = x1 * x1 + y1 * y1 >= x2 * x2 + y2 * y2
+    x, y = np.where(first, x1, x2), np.where(first, y1, y2)
+    norm = np.hypot(x, y)
+    degenerate = norm <= 1e-30
+    safe = np.where(degenerate, 1.0, norm)
+    c1 = np.where(degenerate, 1.0, x / safe)
+    s1 = np.where(degenerate, 0.0, y / safe)
+    return mu1, mu2, c1, s1

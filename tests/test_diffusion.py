@@ -1,0 +1,254 @@
+"""Surface-intrinsic diffusion: denoising, coherence and scale-space properties."""
+
+import numpy as np
+import pytest
+
+from cp_stylize import Band, Sphere, Torus
+from cp_stylize.diffusion import DEFAULTS, MODES, diffuse
+
+PAPER_H = 0.0125
+
+
+def scaled(h, **times):
+    """The paper's times (given at h = 0.0125) for a grid of spacing h: same number of steps."""
+    factor = (h / PAPER_H) ** 2
+    return {k: v * factor for k, v in times.items()}
+
+
+# -- denoising on the torus (paper, Fig. 4) ------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def torus_runs():
+    h = 0.05
+    torus = Torus(1.0, 0.4)
+    band = Band.build(torus, h, stencil="anisotropic")
+    s, t = torus.parameters(band.cp)
+    clean = (np.sin(2 * np.pi * (4 * s + t)) > 0).astype(np.float32)
+    noisy = band.extend(clean + np.random.default_rng(0).normal(0, 0.3, band.size).astype(np.float32))
+    T = scaled(h, T=7e-4)["T"]
+    runs = {
+        "gaussian": diffuse(band, noisy, mode="gaussian", T=T),
+        "perona_malik": diffuse(band, noisy, mode="perona_malik", T=T, **scaled(h, sigma=1.2e-4)),
+        "eed": diffuse(band, noisy, mode="eed", T=T, **scaled(h, sigma=1.2e-4, rho=3.5e-4)),
+    }
+    S, U = np.meshgrid((np.arange(400) + 0.5) / 400, (np.arange(160) + 0.5) / 160)
+    M = band.interpolation_matrix(torus.point(S.ravel(), U.ravel()))
+    phase = 2 * np.pi * (4 * S + U)
+    d = np.abs(np.angle(np.exp(1j * phase)))
+    images = {k: (M @ v).reshape(S.shape) for k, v in runs.items()}
+    return images, (np.sin(phase) > 0), np.minimum(d, np.pi - d)
+
+
+def _psnr(img, ref):
+    return 10 * np.log10(1.0 / np.mean((img - ref) ** 2))
+
+
+def test_eed_denoises_better_than_gaussian(torus_runs):
+    images, bright, _ = torus_runs
+    table = {k: _psnr(v, bright.astype(float)) for k, v in images.items()}
+    print("\nPSNR (dB):", {k: round(v, 2) for k, v in table.items()})
+    assert table["eed"] > table["gaussian"] + 2.0
+    assert table["perona_malik"] > table["gaussian"]
+
+
+def _edge_contrast(img, bright, dist):
+    near = dist < 0.4  # a strip along the stripe edges
+    return img[near & bright].mean() - img[near & ~bright].mean()
+
+
+def _noise_along_edges(img, bright, dist):
+    near = dist < 0.4
+    sides = [img[near & side] - img[near & side].mean() for side in (bright, ~bright)]
+    return np.concatenate(sides).std()
+
+
+def test_eed_keeps_edges_sharp_where_gaussian_blurs(torus_runs):
+    images, bright, dist = torus_runs
+    eed, gauss = (_edge_contrast(images[k], bright, dist) for k in ("eed", "gaussian"))
+    assert eed > 0.5 and gauss < 0.3 and eed > 2 * gauss
+
+
+def test_perona_malik_keeps_edges_but_leaves_noise_along_them(torus_runs):
+    images, bright, dist = torus_runs
+    assert _edge_contrast(images["perona_malik"], bright, dist) > 2 * _edge_contrast(images["gaussian"], bright, dist)
+    pm, eed = (_noise_along_edges(images[k], bright, dist) for k in ("perona_malik", "eed"))
+    assert pm > 1.2 * eed
+
+
+# -- coherence enhancement on the sphere ---------------------------------------------------
+
+
+def coherence_measure(band, u, sigma, rho):
+    """Mean normalised coherence (mu1 - mu2) / (mu1 + mu2) of the structure tensor over the band."""
+    from cp_stylize.stencils import gradient_matrices
+    from cp_stylize.structure import eigen_2x2, reduce_to_tangent, structure_tensor
+    from cp_stylize.tangent import tangent_basis
+
+    J = structure_tensor(band, np.array(u[None, :], dtype=np.float32), sigma, rho, gradient_matrices(band),
+                         dt=0.15 * band.h**2)
+    mu1, mu2, _, _ = eigen_2x2(*reduce_to_tangent(J.astype(np.float64), tangent_basis(band)))
+    return float(np.mean((mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)))
+
+
+def test_ced_raises_coherence_of_a_ridge_pattern():
+    h = 0.05
+    band = Band.build(Sphere(), h, stencil="anisotropic")
+    x, y, z = band.cp.T
+    ridges = 0.5 + 0.5 * np.sin(14 * (z + 0.3 * x * x - 0.2 * y))
+    rng = np.random.default_rng(1)
+    u0 = band.extend((ridges + rng.normal(0, 0.25, band.size)).astype(np.float32))
+    params = scaled(h, sigma=1e-4, rho=4e-4)
+    u = diffuse(band, u0, mode="ced", T=scaled(h, T=6e-4)["T"], alpha=1e-3, b_rel=1e-3, **params)
+    before, after = (coherence_measure(band, v, **scaled(h, sigma=2e-5, rho=4e-4)) for v in (u0, u))
+    print(f"\ncoherence before {before:.3f}, after {after:.3f}")
+    assert after > before + 0.1
+
+
+# -- scale-space properties (seed 003, section 5) ---------------------------------------------
+
+H = 0.1
+FEW_STEPS = 10 * 0.15 * H**2
+
+
+@pytest.fixture(scope="module")
+def small_band():
+    return Band.build(Sphere(), H, stencil="anisotropic")
+
+
+def _image_at(p):
+    x, y, z = p.T
+    u = 0.5 + 0.3 * np.tanh(8 * (x * y + 0.3 * z)) + 0.1 * np.sin(5 * x)
+    return u + 0.05 * np.sin(40 * x + 31 * y) * np.cos(37 * z)
+
+
+def _image(band, dtype=np.float32):
+    return band.extend(_image_at(band.cp).astype(dtype))
+
+
+def _run(band, u, mode, **kw):
+    kw.setdefault("T", FEW_STEPS)
+    return diffuse(band, u, mode=mode, **scaled(H, **{k: v for k, v in DEFAULTS[mode].items()
+                                                      if k in ("sigma", "rho")}), **kw)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_constant_image_stays_constant(small_band, mode):
+    u = _run(small_band, np.full(small_band.size, 0.3, np.float32), mode)
+    assert np.all(np.isfinite(u))
+    np.testing.assert_allclose(u, 0.3, atol=1e-6)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_shift_invariance(small_band, mode):
+    u = _image(small_band, np.float64)
+    a = _run(small_band, u + 3.0, mode, clamp=False)
+    b = _run(small_band, u, mode, clamp=False) + 3.0
+    np.testing.assert_allclose(a, b, atol=1e-9)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_reverse_contrast(small_band, mode):
+    u = _image(small_band, np.float64)
+    np.testing.assert_allclose(_run(small_band, -u, mode), -_run(small_band, u, mode), atol=1e-12)
+
+
+def _surface_mean(band, u, n=20000):
+    p = np.random.default_rng(3).normal(size=(n, 3))
+    p /= np.linalg.norm(p, axis=1)[:, None]
+    return float(np.mean(band.interpolate(u, p)))
+
+
+@pytest.mark.parametrize("mode", ["gaussian", "perona_malik", "eed", "ced"])
+def test_mean_grey_level_drifts_by_less_than_one_percent(small_band, mode):
+    u0 = _image(small_band)
+    u = _run(small_band, u0, mode, T=4 * FEW_STEPS)
+    m0, m = _surface_mean(small_band, u0), _surface_mean(small_band, u)
+    assert abs(m - m0) < 0.01 * abs(m0)
+    assert np.abs(u - u0).max() > 0.05  # the image really changed
+
+
+@pytest.mark.parametrize("mode", ["gaussian", "perona_malik"])
+def test_gaussian_and_perona_malik_stay_within_the_initial_range(small_band, mode):
+    u0 = _image(small_band)
+    u = _run(small_band, u0, mode, T=4 * FEW_STEPS, clamp=False)
+    span = u0.max() - u0.min()
+    assert u.min() >= u0.min() - 1e-3 * span and u.max() <= u0.max() + 1e-3 * span
+
+
+@pytest.mark.parametrize("mode", ["perona_malik", "eed", "ced", "beltrami"])
+def test_scale_invariance(mode):
+    # radius 2 at twice the spacing, times four times as long, relative parameters unchanged
+    small = Band.build(Sphere(1.0), H, stencil="anisotropic")
+    big = Band.build(Sphere(2.0), 2 * H, stencil="anisotropic")
+    # the grids are similar; rounding may put a point on the band's rim in one and not the other
+    same = big.lookup(small.ijk)
+    assert np.mean(same >= 0) > 0.999 and np.all(small.inner[same < 0] == 0)
+    u0 = _image(small, np.float64)
+    params = scaled(H, **{k: v for k, v in DEFAULTS[mode].items() if k in ("sigma", "rho")})
+    a = diffuse(small, u0, mode=mode, T=FEW_STEPS, **params)
+    b = diffuse(big, big.extend(_image_at(big.cp / 2)), mode=mode, T=4 * FEW_STEPS, **{k: 4 * v for k, v in params.items()})
+    assert np.abs(a - u0).max() > 0.05
+    np.testing.assert_allclose(a[same >= 0], b[same[same >= 0]], atol=1e-9)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_colour_channels_share_one_tensor(small_band, mode):
+    grey = _image(small_band, np.float64)
+    rgb = _run(small_band, np.repeat(grey[:, None], 3, axis=1), mode)
+    single = _run(small_band, grey, mode)
+    assert rgb.shape == (small_band.size, 3)
+    for k in range(3):
+        np.testing.assert_allclose(rgb[:, k], single, atol=1e-12)
+
+
+# -- robustness and interface ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_a_single_spike_gives_no_nan(small_band, mode):
+    u = np.zeros(small_band.size, np.float32)
+    u[small_band.size // 2] = 1.0
+    assert np.all(np.isfinite(_run(small_band, u, mode)))
+
+
+def test_progress_rises_and_a_raising_callback_stops_the_run(small_band):
+    u0 = _image(small_band)
+    keep = u0.copy()
+    seen = []
+    _run(small_band, u0, "eed", progress=seen.append)
+    assert seen[-1] == pytest.approx(1.0) and np.all(np.diff(seen) >= 0) and len(seen) > 10
+
+    def cancel(fraction):
+        if fraction > 0.3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        _run(small_band, u0, "ced", progress=cancel)
+    np.testing.assert_array_equal(u0, keep)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(mode="blur"), "mode must be one of"),
+    (dict(mode="eed", scheme="fast"), "scheme must be"),
+    (dict(mode="eed", sigma=-1.0), "sigma must be a non-negative number"),
+    (dict(mode="ced", alpha=2.0), r"alpha must lie in \[0, 1\]"),
+    (dict(mode="eed", T=-1.0), "time must be a non-negative number"),
+])
+def test_bad_parameters_are_reported(small_band, kwargs, message):
+    kwargs.setdefault("T", 0.01)
+    with pytest.raises(ValueError, match=message):
+        diffuse(small_band, np.zeros(small_band.size), **kwargs)
+
+
+def test_anisotropic_modes_need_the_wide_band():
+    band = Band.build(Sphere(), 0.2)
+    with pytest.raises(ValueError, match="stencil='anisotropic'"):
+        diffuse(band, np.zeros(band.size), mode="eed", T=0.01)
+
+
+def test_nan_input_is_refused(small_band):
+    u = np.zeros(small_band.size)
+    u[3] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        diffuse(small_band, u, mode="gaussian", T=0.01)
