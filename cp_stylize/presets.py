@@ -1,0 +1,189 @@
+"""Stylization settings and presets (TOML files).
+
+All settings of a run travel as one frozen :class:`StylizeSettings`.  Lengths
+and times are relative to the object's size: the object is normalised so that
+its longest side is 2 (as in the paper), so a preset looks the same on a 2 cm
+object and on a 20 m one.
+
+A preset is a TOML file (see ``presets/`` at the top of the repository and of
+the extension)::
+
+    name = "Starry Night"
+    description = "..."
+    mode = "ced"          # one of cp_stylize.MODES
+    T = 1.1e-4            # stop time (object 2 units long)
+    spacing = 0.008       # grid spacing (object 2 units long)
+
+    [params]              # sigma, rho, alpha, b_rel, lambda_rel (see diffuse)
+    sigma = 1e-4
+
+    [noise]               # optional: replace a fraction of band points by palette colours
+    fraction = 0.67
+    seed = 1889
+    palette = [["#0b1a3a", 6], ["#f3d54e", 1]]   # sRGB hex colour and relative weight
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+
+from .diffusion import MODES
+
+__all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex"]
+
+#: The presets shipped with cp_stylize.
+PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets")
+
+_PARAMS = ("sigma", "rho", "alpha", "b_rel", "lambda_rel")
+
+
+@dataclasses.dataclass(frozen=True)
+class StylizeSettings:
+    """Everything a stylization run needs, relative to an object whose longest side is 2."""
+
+    mode: str = "ced"
+    T: float = 1e-4
+    spacing: float = 0.01
+    sigma: float | None = None
+    rho: float | None = None
+    alpha: float | None = None
+    b_rel: float | None = None
+    lambda_rel: float | None = None
+    noise_fraction: float = 0.0
+    palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
+    palette_weights: tuple = ()
+    seed: int = 0
+    image_size: int = 1024
+    margin: int = 16
+    name: str = ""
+    description: str = ""
+
+    def __post_init__(self):
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+        for field in ("T", "spacing"):
+            value = getattr(self, field)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{field} must be a positive number, got {value!r}")
+        for field in _PARAMS:
+            value = getattr(self, field)
+            if value is not None and (not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0):
+                raise ValueError(f"{field} must be a non-negative number, got {value!r}")
+        if not 0.0 <= self.noise_fraction <= 1.0:
+            raise ValueError(f"noise fraction must lie in [0, 1], got {self.noise_fraction!r}")
+        if self.noise_fraction > 0 and not self.palette:
+            raise ValueError("noise needs a palette of at least one colour")
+        if self.palette_weights and len(self.palette_weights) != len(self.palette):
+            raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
+        if not 16 <= int(self.image_size) <= 8192:
+            raise ValueError(f"image size must lie in [16, 8192], got {self.image_size!r}")
+
+    def diffusion_parameters(self):
+        """Keyword arguments for :func:`cp_stylize.diffuse`, without the band and data."""
+        kw = {"mode": self.mode, "T": self.T}
+        kw.update({k: getattr(self, k) for k in _PARAMS if getattr(self, k) is not None})
+        return kw
+
+    def scaled(self, length):
+        """Absolute spacing and diffusion parameters for an object whose longest side is ``length``.
+
+        Lengths scale with ``length / 2`` and times with its square (paper, section 4.5).
+        """
+        s = length / 2.0
+        kw = self.diffusion_parameters()
+        for key in ("T", "sigma", "rho"):
+            if key in kw:
+                kw[key] = kw[key] * s * s
+        return self.spacing * s, kw
+
+    def replace(self, **changes):
+        return dataclasses.replace(self, **changes)
+
+
+def parse_hex(colour):
+    """``"#rrggbb"`` to an (r, g, b) tuple of floats in [0, 1] (sRGB-encoded)."""
+    text = colour.strip().lstrip("#")
+    if len(text) != 6 or any(c not in "0123456789abcdefABCDEF" for c in text):
+        raise ValueError(f"colour must be '#rrggbb', got {colour!r}")
+    return tuple(int(text[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
+
+
+def _hex(rgb):
+    return "#" + "".join(f"{round(min(max(c, 0.0), 1.0) * 255):02x}" for c in rgb)
+
+
+def settings_from_dict(data, *, source="preset"):
+    """:class:`StylizeSettings` from a parsed preset table."""
+    known = {"name", "description", "mode", "T", "spacing", "params", "noise", "output"}
+    unknown = set(data) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}")
+    params = dict(data.get("params", {}))
+    bad = set(params) - set(_PARAMS)
+    if bad:
+        raise ValueError(f"{source}: unknown parameter(s) {sorted(bad)}; known: {list(_PARAMS)}")
+    noise = dict(data.get("noise", {}))
+    palette, weights = [], []
+    for entry in noise.get("palette", []):
+        colour, weight = (entry, 1.0) if isinstance(entry, str) else entry
+        palette.append(parse_hex(colour))
+        weights.append(float(weight))
+    output = dict(data.get("output", {}))
+    try:
+        return StylizeSettings(
+            mode=data.get("mode", "ced"), T=data.get("T", 1e-4), spacing=data.get("spacing", 0.01),
+            noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
+            palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
+            image_size=int(output.get("size", 1024)), margin=int(output.get("margin", 16)),
+            name=data.get("name", ""), description=data.get("description", ""), **params)
+    except ValueError as err:
+        raise ValueError(f"{source}: {err}") from None
+
+
+def load_preset(name_or_path):
+    """Settings of a preset: a shipped preset's name (e.g. ``"starry_night"``) or a TOML file's path."""
+    path = name_or_path
+    if not os.path.isfile(path):
+        path = os.path.join(PRESET_DIR, f"{name_or_path}.toml")
+        if not os.path.isfile(path):
+            raise ValueError(f"no preset {name_or_path!r}; shipped presets: {sorted(builtin_presets())}")
+    with open(path, "rb") as f:
+        try:
+            data = tomllib.load(f)
+        except tomllib.TOMLDecodeError as err:
+            raise ValueError(f"{path}: not valid TOML: {err}") from None
+    return settings_from_dict(data, source=path)
+
+
+def builtin_presets():
+    """Shipped presets: ``{name: path}`` sorted by name."""
+    if not os.path.isdir(PRESET_DIR):
+        return {}
+    return {f[:-5]: os.path.join(PRESET_DIR, f) for f in sorted(os.listdir(PRESET_DIR)) if f.endswith(".toml")}
+
+
+def _toml_value(v):
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def save_preset(settings, path):
+    """Write ``settings`` as a preset TOML file that :func:`load_preset` reads back."""
+    lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
+             f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
+             f"spacing = {_toml_value(float(settings.spacing))}", "", "[params]"]
+    lines += [f"{k} = {_toml_value(float(getattr(settings, k)))}" for k in _PARAMS if getattr(settings, k) is not None]
+    if settings.noise_fraction > 0:
+        lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
+                  f"seed = {int(settings.seed)}", "palette = ["]
+        weights = settings.palette_weights or (1.0,) * len(settings.palette)
+        lines += [f'  ["{_hex(c)}", {_toml_value(float(w))}],' for c, w in zip(settings.palette, weights)]
+        lines += ["]"]
+    lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines))
+    return path

@@ -1,0 +1,83 @@
+import numpy as np
+import pytest
+
+from cp_stylize.noise import inject_noise
+from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, parse_hex, save_preset
+
+REQUIRED = {"starry_night", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur"}
+
+
+def test_every_shipped_preset_loads():
+    presets = builtin_presets()
+    assert REQUIRED <= set(presets)
+    for name in presets:
+        settings = load_preset(name)
+        assert settings.name and settings.description
+
+
+def test_starry_night_follows_the_paper():
+    s = load_preset("starry_night")
+    assert (s.mode, s.sigma, s.rho, s.alpha, s.b_rel, s.spacing) == ("ced", 1e-4, 5e-4, 1e-3, 1e-6, 0.008)
+    assert s.noise_fraction == pytest.approx(0.67)
+    # about ten steps of the paper's 0.15 h^2
+    assert 9 <= s.T / (0.15 * s.spacing**2) <= 12
+    # mostly dark blues: blue dominates and the colours are dark in most of the weight
+    rgb, w = np.array(s.palette), np.array(s.palette_weights)
+    dark_blue = (rgb[:, 2] > rgb[:, 0]) & (rgb.mean(axis=1) < 0.45)
+    assert w[dark_blue].sum() > 0.6 * w.sum()
+    assert any(r > 0.9 and g > 0.7 and b < 0.4 for r, g, b in rgb)  # a star yellow
+
+
+def test_save_and_load_round_trip(tmp_path):
+    s = load_preset("starry_night").replace(name="Mine", T=2e-4, image_size=2048)
+    back = load_preset(save_preset(s, tmp_path / "mine.toml"))
+    assert back.T == s.T and back.image_size == 2048 and back.mode == s.mode
+    np.testing.assert_allclose(back.palette, s.palette, atol=1 / 255)
+    assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
+
+
+def test_settings_scale_with_the_object():
+    s = StylizeSettings(mode="eed", T=1e-4, spacing=0.01, sigma=2e-4)
+    h, kw = s.scaled(20.0)  # an object 20 units long: ten times the paper's size
+    assert h == pytest.approx(0.1) and kw["T"] == pytest.approx(1e-2) and kw["sigma"] == pytest.approx(2e-2)
+
+
+@pytest.mark.parametrize("text, message", [
+    ('mode = "blur"', "mode must be one of"),
+    ('mode = "ced"\nT = -1.0', "T must be a positive number"),
+    ('mode = "ced"\nshape = 3', "unknown key"),
+    ('mode = "ced"\n[params]\nbeta = 1.0', "unknown parameter"),
+    ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]', "'#rrggbb'"),
+    ('mode = = "ced"', "not valid TOML"),
+])
+def test_bad_presets_are_reported(tmp_path, text, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message):
+        load_preset(str(path))
+
+
+def test_unknown_preset_name_lists_the_shipped_ones():
+    with pytest.raises(ValueError, match="starry_night"):
+        load_preset("no_such_preset")
+
+
+def test_parse_hex():
+    assert parse_hex("#ff8000") == (1.0, 128 / 255, 0.0)
+
+
+def test_noise_replaces_the_requested_fraction_with_palette_colours():
+    values = np.full((20000, 3), 0.5, np.float32)
+    palette = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
+    out = inject_noise(values, 0.67, palette, weights=[1, 3], seed=4)
+    changed = np.any(out != 0.5, axis=1)
+    assert abs(changed.mean() - 0.67) < 0.02
+    blue = np.all(out == (0.0, 0.0, 1.0), axis=1)
+    assert abs(blue.sum() / changed.sum() - 0.75) < 0.03
+    np.testing.assert_array_equal(inject_noise(values, 0.67, palette, weights=[1, 3], seed=4), out)
+    assert np.all(values == 0.5)
+
+
+def test_noise_rejects_a_palette_of_the_wrong_width():
+    with pytest.raises(ValueError, match="palette must have shape"):
+        inject_noise(np.zeros((5, 3)), 0.5, [(1.0, 0.0)])
