@@ -146,7 +146,7 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
     lo, hi = rows.min(axis=1, keepdims=True), rows.max(axis=1, keepdims=True)
     if n_steps:
-        flow = _Flow(band, rows.dtype, mode, params, min(tau, PAPER_CFL * h2), normals)
+        flow = _Flow(band, rows.dtype, mode, params, PAPER_CFL * h2, normals)
         flow.normalise(rows)
         E = band.extension_matrix(rows.dtype)
         for step in range(n_steps):
