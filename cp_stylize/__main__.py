@@ -11,7 +11,7 @@ def _demo(args):
         from .blender import demo
     except ImportError as err:
         sys.exit(f"the demo needs Blender's Python module (pip install -r requirements.txt): {err}")
-    demo.run(args.out)
+    demo.run(args.out, preset=args.preset, quality=args.quality.upper(), image_size=args.size)
 
 
 def _paper(args):
@@ -31,6 +31,10 @@ def main(argv=None):
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("demo", help="stylize a textured object in a Blender scene and render it")
     p.add_argument("--out", default="demo_out", help="output folder (default: demo_out)")
+    p.add_argument("--preset", default="starry_night", help="preset to run (default: starry_night)")
+    p.add_argument("--quality", default="standard", choices=["preview", "standard", "high"],
+                   help="grid spacing relative to the object (default: standard)")
+    p.add_argument("--size", default="1024", choices=["512", "1024", "2048", "4096"], help="texture size")
     p.set_defaults(func=_demo)
     p = sub.add_parser("paper", help="redraw the paper's experiments (Fig. 4 and a Fig. 5-like CED) as PNGs")
     p.add_argument("--out", default="paper_out", help="output folder (default: paper_out)")

@@ -1,8 +1,9 @@
 """The main job: ``python -m cp_stylize demo --out DIR``.
 
-Builds a scene with a textured object from Blender's own data, stylizes its
-texture on the surface and writes ``demo.blend``, ``before.png``,
-``after.png`` (Cycles renders) and ``texture.png`` (the stylized texture).
+Builds a scene with Suzanne (two subdivision levels) textured with a
+photograph that ships with Blender, runs the Starry Night preset on it with
+the Stylize operator and writes ``demo.blend``, ``before.png``, ``after.png``
+(Cycles renders) and ``texture.png`` (the stylized texture).
 """
 
 import os
@@ -13,44 +14,58 @@ import bpy
 from . import images, scene
 
 
-def run(out_dir, *, spacing=0.02, smoothing_time=0.0005, resolution=(480, 360), samples=16, log=print):
-    """Run the demo and write its four files into ``out_dir``; returns their paths."""
-    from .. import Band, Sphere, heat
-    from ..texture import bake_map, sample_map, write_png
-
-    os.makedirs(out_dir, exist_ok=True)
+def build_scene(texture_name="forest"):
+    """Suzanne with a Subdivision modifier and a material reading a photograph through her UVs."""
     scene.reset()
-    texture = scene.photo_texture("forest")
+    texture = scene.photo_texture(texture_name)
     source = images.array_to_image("demo_texture", texture)
     material = scene.new_material("Demo", source)
-    obj = scene.add_uv_sphere("Globe", radius=1.0, material=material)
+    bpy.ops.mesh.primitive_monkey_add(size=2.0)
+    obj = bpy.context.active_object
+    obj.name = "Suzanne"
+    modifier = obj.modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels = modifier.render_levels = 2
+    bpy.ops.object.shade_smooth()
+    obj.rotation_euler = (0.0, 0.0, 0.0)
+    obj.data.materials.append(material)
+    return obj, material, source
+
+
+def run(out_dir, *, preset="starry_night", quality="STANDARD", image_size="1024", resolution=(480, 400),
+        samples=16, log=print):
+    """Run the demo and write its four files into ``out_dir``; returns their paths."""
+    from . import register, unregister
+    from ..texture import write_png
+
+    os.makedirs(out_dir, exist_ok=True)
+    obj, material, source = build_scene()
     scene.setup_render(resolution, samples)
-    scene.frame_objects([obj])
+    scene.frame_objects([obj], margin=1.05)
     paths = {name: os.path.join(out_dir, name) for name in ("before.png", "after.png", "texture.png", "demo.blend")}
     scene.render(paths["before.png"])
 
-    start = time.perf_counter()
-    band = Band.build(Sphere(1.0), spacing)
-    values = sample_map(band, texture)
-    smoothed = heat(band, values, smoothing_time)
-    result = bake_map(band, smoothed, *texture.shape[:2]).clip(0.0, 1.0)
-    log(f"surface heat smoothing: {band.size:,} band points at h = {spacing}, "
-        f"t = {smoothing_time}, {time.perf_counter() - start:.1f} s")
-
-    stylized = images.array_to_image(f"{obj.name}_stylized", result)
-    stylized.filepath_raw = paths["texture.png"]
-    stylized.file_format = "PNG"
-    copy = material.copy()
-    copy.name = f"{material.name}_stylized"
-    tex = next(n for n in copy.node_tree.nodes if n.type == "TEX_IMAGE")
-    tex.image = stylized
-    obj.data.materials[0] = copy
-    material.use_fake_user = True  # the original stays in the file, to switch back to
-    scene.render(paths["after.png"])
-    write_png(paths["texture.png"], result)
-    stylized.pack()
-    source.pack()
-    bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(paths["demo.blend"]))
-    for name, path in paths.items():
+    registered = hasattr(bpy.types, "OBJECT_OT_cp_stylize")  # the add-on may be enabled already
+    if not registered:
+        register()
+    try:
+        settings = bpy.context.scene.cp_stylize
+        bpy.ops.cp_stylize.preset_load(name=preset)
+        settings.quality = quality
+        settings.image_size = image_size
+        start = time.perf_counter()
+        bpy.context.view_layer.objects.active = obj
+        result = bpy.ops.object.cp_stylize()
+        if result != {"FINISHED"}:
+            raise RuntimeError(f"the Stylize operator returned {result}")
+        log(f"{preset} on {obj.name}: {time.perf_counter() - start:.1f} s")
+        stylized = bpy.data.images[f"{obj.name}_stylized"]
+        write_png(paths["texture.png"], images.image_to_array(stylized))
+        scene.render(paths["after.png"])
+        source.pack()
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(paths["demo.blend"]))
+    finally:
+        if not registered:
+            unregister()
+    for path in paths.values():
         log(f"wrote {path}")
     return paths

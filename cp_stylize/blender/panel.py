@@ -2,6 +2,39 @@
 
 import bpy
 
+from . import operators
+
+_estimate_cache = {}
+
+
+def _estimate_text(obj, settings):
+    """Lines describing the run's size, cached on what changes them."""
+    try:
+        core = settings.to_settings()
+    except ValueError as err:
+        return [str(err)]
+    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons))
+    if key not in _estimate_cache:
+        try:
+            h, n, nbytes, seconds = operators.estimate(obj, core)
+            _estimate_cache.clear()
+            _estimate_cache[key] = [f"Grid spacing {h:.3g} (world units)",
+                                    f"About {n:,} band points, {nbytes / 2**20:,.0f} MiB",
+                                    f"Roughly {max(seconds, 1):,.0f} s"]
+        except ValueError as err:
+            return [str(err)]
+    return _estimate_cache[key]
+
+
+class CP_STYLIZE_MT_presets(bpy.types.Menu):
+    bl_idname = "CP_STYLIZE_MT_presets"
+    bl_label = "Presets"
+
+    def draw(self, context):
+        layout = self.layout
+        for name in operators.all_presets():
+            layout.operator("cp_stylize.preset_load", text=bpy.path.display_name(name)).name = name
+
 
 class VIEW3D_PT_cp_stylize(bpy.types.Panel):
     bl_idname = "VIEW3D_PT_cp_stylize"
@@ -13,11 +46,82 @@ class VIEW3D_PT_cp_stylize(bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.cp_stylize
         layout = self.layout
+        row = layout.row(align=True)
+        row.menu("CP_STYLIZE_MT_presets", text=settings.preset_name or "Presets")
+        row.operator("cp_stylize.preset_add", text="", icon="ADD")
+        remove = row.operator("cp_stylize.preset_remove", text="", icon="REMOVE")
+        remove.name = bpy.path.clean_name(settings.preset_name).lower()
+
         layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "mode")
         layout.prop(settings, "quality")
         if settings.quality == "CUSTOM":
             layout.prop(settings, "spacing")
+        obj = context.active_object
+        box = layout.box()
+        if obj is not None and obj.type == "MESH":
+            for line in _estimate_text(obj, settings):
+                box.label(text=line)
+        else:
+            box.label(text="Select a mesh object", icon="INFO")
+
+        col = layout.column(heading="Filter")
+        col.prop(settings, "time")
+        mode = settings.mode
+        if mode != "gaussian":
+            col.prop(settings, "sigma")
+        if mode in ("eed", "ced"):
+            col.prop(settings, "rho")
+        if mode == "ced":
+            col.prop(settings, "alpha")
+            col.prop(settings, "b_rel")
+        if mode in ("eed", "perona_malik", "beltrami"):
+            col.prop(settings, "lambda_rel")
+
+
+class VIEW3D_PT_cp_stylize_noise(bpy.types.Panel):
+    bl_label = "Noise"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Stylize"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        settings = context.scene.cp_stylize
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "noise_fraction")
+        layout.prop(settings, "seed")
+        for index, item in enumerate(settings.palette):
+            row = layout.row(align=True)
+            row.prop(item, "colour", text="")
+            row.prop(item, "weight", text="Weight")
+            row.operator("cp_stylize.palette_remove", text="", icon="X").index = index
+        layout.operator("cp_stylize.palette_add", icon="ADD")
+
+
+class VIEW3D_PT_cp_stylize_output(bpy.types.Panel):
+    bl_label = "Output"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Stylize"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+
+    def draw(self, context):
+        settings = context.scene.cp_stylize
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(settings, "image_size")
+        layout.prop(settings, "image_name")
+        layout.prop(settings, "target")
+        layout.prop(settings, "storage")
+        layout.prop(settings, "memory_limit")
+        layout.separator()
+        layout.operator("object.cp_stylize", icon="BRUSH_DATA")
         layout.operator("object.cp_stylize_estimate", icon="INFO")
 
 
-classes = (VIEW3D_PT_cp_stylize,)
+classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_noise, VIEW3D_PT_cp_stylize_output)

@@ -42,8 +42,8 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
         bpy.ops.mesh.primitive_uv_sphere_add(radius=2.0)
         assert bpy.ops.object.cp_stylize_estimate() == {{"FINISHED"}}
         addon = sys.modules["bl_ext.user_default.cp_stylize"]
-        h, n, nbytes = addon.cp_stylize.blender.operators.band_estimate(
-            bpy.context.active_object, bpy.context.scene.cp_stylize)
+        h, n, nbytes, seconds = addon.cp_stylize.blender.operators.estimate(
+            bpy.context.active_object, bpy.context.scene.cp_stylize.to_settings())
         assert abs(h - 0.02 * 4.0 / 2) < 1e-9, h
         print("ESTIMATE", h, n)
     """)
@@ -57,7 +57,7 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
     from cp_stylize import band_width
 
     h = 0.04
-    expected = 2 * band_width(h) * 1.01 * 16 * 3.14159 / h**3
+    expected = 2 * band_width(h, stencil="anisotropic") * 1.01 * 16 * 3.14159 / h**3
     assert 0.95 * expected < n < 1.0 * expected
     assert os.path.isdir(home / ".config" / "blender")
 
@@ -94,13 +94,13 @@ def test_estimate_reports_an_error_for_a_non_mesh_object(registered):
 
 
 def test_estimate_follows_the_object_size(registered):
-    from cp_stylize.blender.operators import band_estimate
+    from cp_stylize.blender.operators import estimate
 
     bpy.ops.mesh.primitive_cube_add(size=2.0)
     cube = bpy.context.active_object
-    settings = bpy.context.scene.cp_stylize
-    h1, n1, _ = band_estimate(cube, settings)
+    settings = bpy.context.scene.cp_stylize.to_settings()
+    h1, n1, _, _ = estimate(cube, settings)
     cube.scale = (10.0, 10.0, 10.0)
-    h2, n2, _ = band_estimate(cube, settings)
+    h2, n2, _, _ = estimate(cube, settings)
     # relative settings: ten times the size means ten times the spacing and the same band
     assert h2 == pytest.approx(10 * h1) and n2 == pytest.approx(n1, rel=1e-6)

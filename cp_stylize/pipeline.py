@@ -1,0 +1,155 @@
+"""The whole stylization of a textured triangle mesh, from colours in to an atlas image out.
+
+1. Normalise the mesh so that its longest side is 2 (the paper's scale, so a
+   setting looks the same whatever the object's size).
+2. Build the closest point band around it.
+3. Bake the surface colour into the band (textures through per-corner UVs,
+   per-corner colours elsewhere).
+4. Optionally replace a fraction of the band points with palette colours.
+5. Diffuse on the surface.
+6. Bake the band's values into a UV atlas image.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from .atlas import bake_to_atlas, uv_atlas
+from .band import Band
+from .diffusion import diffuse
+from .mesh import TriangleMesh
+from .noise import inject_noise
+from .texture import bilinear
+
+__all__ = ["ColourInput", "StylizeResult", "sample_colours", "stylize"]
+
+
+@dataclasses.dataclass
+class ColourInput:
+    """Colour on a mesh's surface, sRGB-encoded values in [0, 1].
+
+    Attributes
+    ----------
+    corner_colours : ndarray (F, 3, C) or None
+        Colours at the corners of each face, interpolated across the face
+        (a colour attribute, or a material's flat base colour).
+    textures : list of (image, uvs, faces)
+        Images (H, W, C), row 0 at the bottom, each read through per-corner UVs
+        (F, 3, 2) on the faces where the boolean mask ``faces`` (F,) is set.
+        Textures win over ``corner_colours``.
+    """
+
+    corner_colours: np.ndarray | None = None
+    textures: list = dataclasses.field(default_factory=list)
+
+    @classmethod
+    def constant(cls, n_faces, colour):
+        colour = np.asarray(colour, dtype=np.float32)
+        return cls(corner_colours=np.broadcast_to(colour, (n_faces, 3, len(colour))).copy())
+
+
+@dataclasses.dataclass
+class StylizeResult:
+    image: np.ndarray        # (size, size, C), row 0 at the bottom
+    atlas: object            # the UV atlas the image is laid out on
+    band_size: int
+    spacing: float           # grid spacing in the mesh's own units
+    seconds: float
+
+
+def sample_colours(band, colours, channels=3):
+    """Colour (N, channels) at the band's closest points from a :class:`ColourInput`."""
+    if band.face is None:
+        raise ValueError("the band was not built on a triangle mesh: it has no faces to read colours from")
+    values = np.zeros((band.size, channels), dtype=np.float32)
+    if colours.corner_colours is not None:
+        corners = np.asarray(colours.corner_colours, dtype=np.float32)[band.face, :, :channels]
+        values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", band.bary.astype(np.float32), corners)
+    for image, uvs, faces in colours.textures:
+        chosen = np.asarray(faces, dtype=bool)[band.face]
+        uv = np.einsum("nk,nkd->nd", band.bary[chosen], np.asarray(uvs, dtype=np.float64)[band.face[chosen]])
+        sampled = bilinear(np.asarray(image, dtype=np.float32), uv, wrap=("repeat", "repeat"))
+        values[chosen, :min(channels, sampled.shape[1])] = sampled[:, :channels]
+    return values
+
+
+def stylize(vertices, faces, colours, settings, *, uvs=None, progress=None, log=None):
+    """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
+
+    Parameters
+    ----------
+    vertices : ndarray (V, 3)
+    faces : ndarray (F, 3)
+    colours : ColourInput
+    settings : StylizeSettings
+        Relative to an object whose longest side is 2.
+    uvs : ndarray (F, 3, 2), optional
+        The mesh's own per-corner UVs for the output atlas; used where usable,
+        otherwise a new atlas is made (see :func:`cp_stylize.atlas.uv_atlas`).
+    progress : callable, optional
+        ``progress(fraction)``; an exception it raises stops the run.
+    """
+    start = time.perf_counter()
+    report = progress or (lambda f: None)
+    say = log or (lambda msg: None)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    longest = float((hi - lo).max())
+    if not np.isfinite(longest) or longest <= 0:
+        raise ValueError(f"the mesh has no extent (longest side {longest!r})")
+    scale = 2.0 / longest
+    mesh = TriangleMesh((vertices - 0.5 * (lo + hi)) * scale, faces)
+    if mesh.skipped_faces:
+        say(f"skipped {mesh.skipped_faces} degenerate face(s)")
+    report(0.0)
+    stencil = "laplacian" if settings.mode == "gaussian" else "anisotropic"
+    band = Band.build(mesh, settings.spacing, stencil=stencil)
+    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
+    report(0.1)
+    values = sample_colours(band, colours)
+    if settings.noise_fraction > 0:
+        values = inject_noise(values, settings.noise_fraction, settings.palette,
+                              weights=settings.palette_weights or None, seed=settings.seed)
+    report(0.15)
+    result = diffuse(band, values, **settings.diffusion_parameters(),
+                     progress=lambda f: report(0.15 + 0.75 * f))
+    atlas = uv_atlas(mesh, settings.image_size, uvs)
+    report(0.95)
+    image = bake_to_atlas(band, result, atlas, margin=settings.margin)
+    report(1.0)
+    return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
+                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start)
+
+
+#: Seconds per band point and sparse product (E and L together), measured with
+#: ``python -m cp_stylize bench`` on a 2-core machine; a rough guide only.
+SECONDS_PER_POINT_PRODUCT = 9e-8
+
+#: Memory a band point takes during a run, in bytes: matrices (E: 64 weights,
+#: the 19-point divergence operator, L, gradients), geometry, tensor fields and
+#: work arrays of a colour run.
+BYTES_PER_BAND_POINT = 1600
+
+
+def estimate_run(n_points, settings, channels=3):
+    """Rough ``(seconds, bytes)`` of a run on ``n_points`` band points with ``settings``."""
+    from .diffusion import DEFAULTS, PAPER_CFL
+    from .heat import time_steps
+
+    h2 = settings.spacing ** 2
+    steps, _ = time_steps(settings.T, PAPER_CFL * h2)
+    params = {**DEFAULTS[settings.mode], **{k: v for k, v in settings.diffusion_parameters().items()}}
+    products = channels
+    if settings.mode != "gaussian":
+        sigma_steps, _ = time_steps(params.get("sigma", 0.0), PAPER_CFL * h2)
+        products += channels * sigma_steps + 6
+    if settings.mode in ("eed", "ced"):
+        rho_steps, _ = time_steps(params.get("rho", 0.0), PAPER_CFL * h2)
+        products += 6 * rho_steps
+    seconds = SECONDS_PER_POINT_PRODUCT * n_points * steps * products
+    return seconds, n_points * BYTES_PER_BAND_POINT

@@ -1,0 +1,252 @@
+"""The Stylize operator in Blender: inputs, outputs, errors, cancel and undo."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture
+def addon():
+    import cp_stylize.blender as addon
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon.register()
+    settings = bpy.context.scene.cp_stylize
+    settings.quality = "PREVIEW"
+    settings.image_size = "512"
+    yield settings
+    addon.unregister()
+
+
+def _pixels(image):
+    w, h = image.size
+    buf = np.empty(w * h * 4, dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    return buf.reshape(h, w, 4)
+
+
+def _gradient_image(name="source", size=256):
+    v, u = np.meshgrid(np.linspace(0, 1, size), np.linspace(0, 1, size), indexing="ij")
+    rgb = np.stack([0.2 + 0.6 * u, 0.3 + 0.4 * np.sin(6 * v) ** 2, 0.8 - 0.5 * u * v], axis=-1)
+    image = bpy.data.images.new(name, size, size)
+    rgba = np.concatenate([rgb, np.ones((size, size, 1))], axis=-1).astype(np.float32)
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    return image
+
+
+def _warm_blobs(size=256):
+    """Warm colours in soft, unoriented blobs: no blue, little coherence."""
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(5)
+    t = gaussian_filter(rng.normal(size=(size, size)), 6, mode="wrap")
+    t = (t - t.min()) / (t.max() - t.min())
+    rgb = np.stack([0.6 + 0.4 * t, 0.2 + 0.5 * t, 0.1 + 0.1 * t], axis=-1)
+    image = bpy.data.images.new("warm", size, size)
+    image.pixels.foreach_set(np.concatenate([rgb, np.ones((size, size, 1))], axis=-1).astype(np.float32).ravel())
+    image.pack()
+    return image
+
+
+def _textured_sphere(image=None, name="Ball"):
+    from cp_stylize.blender import scene
+
+    image = image or _gradient_image()
+    material = scene.new_material("Painted", image)
+    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=48, rings=24)
+    return obj, material, image
+
+
+def _base_color_image(material):
+    bsdf = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    link = bsdf.inputs["Base Color"].links[0]
+    return link.from_node.image
+
+
+def _counts():
+    return {k: len(getattr(bpy.data, k)) for k in ("images", "materials", "meshes", "objects", "node_groups")}
+
+
+def _coherence(img):
+    """Mean normalised coherence of an equirectangular texture's structure tensor, away from the poles."""
+    from scipy.ndimage import gaussian_filter
+
+    rows = img.shape[0] // 8
+    grey = img[rows:-rows, :, :3].mean(axis=2)
+    gy, gx = np.gradient(gaussian_filter(grey, 1.0))
+    jxx, jxy, jyy = (gaussian_filter(a, 4.0) for a in (gx * gx, gx * gy, gy * gy))
+    coherence = np.sqrt((jxx - jyy) ** 2 + 4 * jxy**2) / np.maximum(jxx + jyy, 1e-12)
+    return float(coherence.mean())
+
+
+def test_starry_night_on_an_image_textured_sphere(addon):
+    from cp_stylize.presets import load_preset
+
+    obj, material, source = _textured_sphere(_warm_blobs())
+    before_pixels = _pixels(source).copy()
+    before_nodes = len(material.node_tree.nodes)
+    assert bpy.ops.object.cp_stylize(preset="starry_night", quality="PREVIEW") == {"FINISHED"}
+
+    image = bpy.data.images["Ball_stylized"]
+    copy = obj.material_slots[0].material
+    assert copy is not material and copy.name == "Painted_stylized"
+    assert _base_color_image(copy) is image and image.packed_file is not None
+    out = _pixels(image)
+    assert out.shape == (512, 512, 4)
+    # the original image and material are untouched
+    np.testing.assert_array_equal(_pixels(source), before_pixels)
+    assert len(material.node_tree.nodes) == before_nodes and _base_color_image(material) is source
+    # palette colours appear where the input had none, and the strokes are coherent
+    palette = np.array(load_preset("starry_night").palette)
+    palette = palette[palette[:, 2] > palette[:, 0]]  # its blues
+    near = lambda img: np.min(np.linalg.norm(img[..., None, :3] - palette[None, None], axis=-1), axis=-1) < 0.12
+    covered = out[..., :3].max(axis=2) > 0.0
+    assert near(out)[covered].mean() > 0.1 and near(before_pixels).mean() < 0.01
+    # the strokes: the same noise without the diffusion is far less coherent
+    bpy.ops.cp_stylize.preset_load(name="starry_night")
+    addon.quality, addon.time = "PREVIEW", 1e-9
+    obj.material_slots[0].material = material
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    noise_only = _pixels(_base_color_image(obj.material_slots[0].material))
+    print(f"\ncoherence: noise only {_coherence(noise_only):.3f}, Starry Night {_coherence(out):.3f}")
+    assert _coherence(out) > _coherence(noise_only) + 0.05
+
+
+def test_a_procedural_material_is_baked_then_stylized(addon):
+    from cp_stylize.blender import scene
+
+    obj = scene.add_uv_sphere("Checkers", radius=1.0, segments=32, rings=16)
+    material = bpy.data.materials.new("Checker")
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 6.0
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    obj.data.materials.append(material)
+    images_before = set(bpy.data.images.keys())
+    nodes_before = len(material.node_tree.nodes)
+    addon.mode, addon.time = "gaussian", 1e-4
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert set(bpy.data.images.keys()) - images_before == {"Checkers_stylized"}  # the bake image is gone
+    out = _pixels(bpy.data.images["Checkers_stylized"])[..., :3]
+    # the checker's two colours, smoothed: both dark and light regions survive, with blurred edges between
+    grey = out.mean(axis=2)
+    covered = grey > 0.01
+    assert grey[covered].max() - grey[covered].min() > 0.3
+    assert len(material.node_tree.nodes) == nodes_before  # no bake node left behind
+
+
+def test_an_object_without_uvs_gets_an_atlas(addon):
+    from cp_stylize.blender import scene
+
+    obj = scene.add_uv_sphere("Bare", radius=1.0, segments=32, rings=16)
+    while obj.data.uv_layers:
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    attr = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    z = np.array([v.co.z for v in obj.data.vertices])
+    colours = np.stack([0.5 + 0.5 * z, 0.2 + 0 * z, 0.5 - 0.5 * z, 1 + 0 * z], axis=1).astype(np.float32)
+    attr.data.foreach_set("color", colours.ravel())
+    obj.data.color_attributes.active_color = attr
+    addon.mode, addon.time = "gaussian", 1e-4
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert "cp_stylize_atlas" in obj.data.uv_layers
+    material = obj.material_slots[0].material
+    tex = next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+    uv_node = tex.inputs["Vector"].links[0].from_node
+    assert uv_node.type == "UVMAP" and uv_node.uv_map == "cp_stylize_atlas"
+    out = _pixels(tex.image)[..., :3]
+    assert out[..., 0].max() > 0.7 and out[..., 2].max() > 0.7  # both ends of the gradient are there
+
+
+def _error_case(name, addon):
+    """Set up the scene for an error case; returns the operator call."""
+    from cp_stylize.blender import scene
+
+    if name == "no active object":
+        bpy.ops.object.empty_add()
+        bpy.context.view_layer.objects.active = None
+    elif name == "non-mesh":
+        bpy.ops.object.camera_add()
+    elif name == "no faces":
+        mesh = bpy.data.meshes.new("Edges")
+        mesh.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+        obj = bpy.data.objects.new("Edges", mesh)
+        bpy.context.collection.objects.link(obj)
+        bpy.context.view_layer.objects.active = obj
+    elif name == "missing image file":
+        image = bpy.data.images.new("Lost", 8, 8)
+        image.source = "FILE"
+        image.filepath = "/nonexistent/lost.png"
+        _textured_sphere(image)
+    elif name == "tiled image":
+        image = bpy.data.images.new("Tiles", 8, 8, tiled=True)
+        _textured_sphere(image)
+    elif name == "memory limit":
+        _textured_sphere()
+        addon.memory_limit = 0.1
+        addon.quality = "HIGH"
+
+
+@pytest.mark.parametrize("case, message", [
+    ("no active object", "no active object"),
+    ("non-mesh", "not a mesh"),
+    ("no faces", "has no faces"),
+    ("missing image file", "is missing"),
+    ("tiled image", "tiled"),
+    ("memory limit", "above the memory limit"),
+])
+def test_errors_are_reported_and_change_nothing(addon, case, message):
+    _error_case(case, addon)
+    counts = _counts()
+    pixels = {im.name: _pixels(im).copy() for im in bpy.data.images if im.has_data}
+    with pytest.raises(RuntimeError, match=message):
+        bpy.ops.object.cp_stylize()
+    assert _counts() == counts
+    for name, before in pixels.items():
+        np.testing.assert_array_equal(_pixels(bpy.data.images[name]), before)
+
+
+def test_a_core_error_is_reported(addon, tmp_path):
+    _textured_sphere()
+    bad = tmp_path / "bad.toml"
+    bad.write_text('mode = "ced"\nT = -1.0\n')
+    counts = _counts()
+    with pytest.raises(RuntimeError, match="T must be a positive number"):
+        bpy.ops.object.cp_stylize(preset=str(bad))
+    assert _counts() == counts
+
+
+def test_cancel_mid_run_leaves_no_new_datablocks(addon):
+    from cp_stylize.blender import stylize
+
+    obj, material, _ = _textured_sphere()
+    counts = _counts()
+    job = stylize.prepare(obj, addon.to_settings().replace(mode="eed", T=5e-4))
+
+    class Cancel(Exception):
+        pass
+
+    def cancel(fraction):
+        if fraction > 0.3:
+            raise Cancel
+
+    with pytest.raises(Cancel):
+        stylize.run_core(job, progress=cancel)
+    assert _counts() == counts and obj.material_slots[0].material is material
+
+
+def test_a_run_is_one_undo_step(addon):
+    # Blender's undo needs a window, which background mode has none of: check what makes a run
+    # undoable (the UNDO flag, so the window manager pushes one step when the operator finishes)
+    # and that the whole run is one operator call that finishes.
+    assert "UNDO" in bpy.types.OBJECT_OT_cp_stylize.bl_options
+    obj, material, _ = _textured_sphere()
+    addon.mode, addon.time = "gaussian", 1e-4
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert obj.material_slots[0].material.name == "Painted_stylized" and material.use_fake_user
