@@ -17,12 +17,11 @@ import time
 
 import numpy as np
 
-from .atlas import bake_to_atlas, uv_atlas
+from .atlas import bake_to_atlas, sample_texture, uv_atlas
 from .band import Band
 from .diffusion import diffuse
 from .mesh import TriangleMesh
 from .noise import inject_noise
-from .texture import bilinear
 
 __all__ = ["ColourInput", "StylizeResult", "sample_colours", "stylize"]
 
@@ -70,8 +69,7 @@ def sample_colours(band, colours, channels=3):
         values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", band.bary.astype(np.float32), corners)
     for image, uvs, faces in colours.textures:
         chosen = np.asarray(faces, dtype=bool)[band.face]
-        uv = np.einsum("nk,nkd->nd", band.bary[chosen], np.asarray(uvs, dtype=np.float64)[band.face[chosen]])
-        sampled = bilinear(np.asarray(image, dtype=np.float32), uv, wrap=("repeat", "repeat"))
+        sampled = sample_texture(band, uvs, np.asarray(image, dtype=np.float32))[chosen]
         values[chosen, :min(channels, sampled.shape[1])] = sampled[:, :channels]
     return values
 

@@ -1,0 +1,67 @@
+"""The whole stylization without Blender: mesh and colours in, atlas image out."""
+
+import numpy as np
+import pytest
+
+from cp_stylize import Torus
+from cp_stylize.mesh import parametric_mesh
+from cp_stylize.pipeline import ColourInput, estimate_run, stylize
+from cp_stylize.presets import StylizeSettings, load_preset
+
+
+@pytest.fixture(scope="module")
+def torus_mesh():
+    # a torus 20 units across: the pipeline normalises it to the paper's size
+    torus = Torus(10.0, 4.0)
+    return parametric_mesh(torus.point, 48, 24, periodic_u=True, periodic_v=True)
+
+
+def _stripes(size=64):
+    u = (np.arange(size) + 0.5) / size
+    red = (np.sin(2 * np.pi * 4 * u) > 0).astype(np.float32)
+    img = np.zeros((size, size, 3), np.float32)
+    img[..., 0] = red[None, :]
+    img[..., 2] = 1 - red[None, :]
+    return img
+
+
+def test_textures_on_some_faces_and_flat_colour_on_the_rest(torus_mesh):
+    vertices, faces, uvs = torus_mesh
+    first_half = np.arange(len(faces)) < len(faces) // 2
+    colours = ColourInput.constant(len(faces), (0.0, 1.0, 0.0))
+    colours.textures.append((_stripes(), uvs, first_half))
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05, image_size=128)
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    assert result.image.shape == (128, 128, 3) and not result.atlas.generated
+    assert result.spacing == pytest.approx(0.05 * 28.0 / 2)  # in the mesh's own units (longest side 28)
+    img = result.image
+    # the UV layout: s < 1/2 holds the textured faces; the surface joins s = 1 to s = 0 and
+    # s = 1/2 to the stripes, so only the middle of the green half stays pure green
+    left, right = img[:, 4:60], img[:, 72:120]
+    assert left[..., 0].max() > 0.8 and left[..., 2].max() > 0.8  # red and blue stripes
+    assert right[..., 1].min() > 0.95 and right[..., 0].max() < 0.05
+
+
+def test_starry_night_noise_brings_the_palette(torus_mesh):
+    vertices, faces, uvs = torus_mesh
+    colours = ColourInput.constant(len(faces), (0.9, 0.4, 0.2))
+    settings = load_preset("starry_night").replace(spacing=0.05, T=1e-3, image_size=64)
+    seen = []
+    result = stylize(vertices, faces, colours, settings, uvs=uvs, progress=seen.append)
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and np.all(np.diff(seen) >= 0)
+    blue = result.image[..., 2] > result.image[..., 0]
+    assert blue.mean() > 0.3  # mostly the painting's blues where there was orange
+
+
+def test_estimate_grows_with_the_grid_and_the_filter():
+    ced = load_preset("starry_night")
+    s1, b1 = estimate_run(100_000, ced)
+    s2, b2 = estimate_run(100_000, ced.replace(spacing=ced.spacing / 2))
+    gauss, _ = estimate_run(100_000, ced.replace(mode="gaussian"))
+    assert b1 == b2 and s2 > 3 * s1 and gauss < 0.1 * s1
+
+
+def test_a_flat_mesh_is_reported():
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
+    with pytest.raises(ValueError, match="no extent"):
+        stylize(np.zeros((3, 3)), np.array([[0, 1, 2]]), ColourInput.constant(1, (1, 1, 1)), settings)
