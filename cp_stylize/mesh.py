@@ -44,7 +44,7 @@ import itertools
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["TriangleMesh", "cp_jacobian_normals", "parametric_mesh"]
+__all__ = ["TriangleMesh", "parametric_mesh"]
 
 #: Points handled at once, about (band chunks, query chunks, normals).
 _CHUNK = 1 << 17
@@ -707,84 +707,6 @@ def _subdivision_centroids(m):
     idn, jdn = i[down], j[down]
     downward = np.column_stack([idn + 2 / 3, jdn + 2 / 3, m - 2 - idn - jdn + 2 / 3]) / m
     return np.vstack([upward, downward])
-
-
-def cp_jacobian_normals(band, *, extend=True):
-    """Unit normals (N, 3) at the band's closest points from the Jacobian of ``cp`` (eqs. (32)-(33)).
-
-    At a surface point the Jacobian of the closest point function is the
-    tangent projector ``D cp = I - n n^T`` (eq. (33)); off the surface it
-    still maps the normal to zero.  ``D cp`` at each band point is estimated
-    by central differences of ``band.cp`` over the grid neighbours along
-    each axis (one-sided where one neighbour is missing), symmetrised, and
-    its eigenvector of the eigenvalue nearest zero is the normal there.
-
-    Parameters
-    ----------
-    band : Band
-        Any band (analytic surface or mesh).
-    extend : bool
-        Replace each estimate by the closest point extension of the field:
-        ``E`` applied to the six components of ``n n^T`` (an orientation-free
-        line field), then the leading eigenvector.  Every band point then
-        carries the normal estimated near its closest point, where the
-        estimate is best.
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-        Unit normals, oriented along ``x - cp(x)`` where ``x`` is off the
-        surface.
-
-    Notes
-    -----
-    Where an axis has neither neighbour in the band the point lies near the
-    band's edge, at least ``width - h`` from the surface, and
-    ``(x - cp) / |x - cp|`` is used.  On a mesh ``cp`` is only piecewise
-    smooth (planar over face regions, linear over edge regions), and
-    differences taken far from the surface mix those pieces; on a sphere of
-    16k triangles the raw estimate is within about 1 degree of the exact
-    normal within ``h`` of the surface but up to 9 degrees at the band's
-    edge, and the extended one within 1 degree everywhere.
-    """
-    axes = np.eye(3, dtype=np.int64)
-    plus, minus = band.neighbors(axes), band.neighbors(-axes)
-    h = band.h
-    normals = np.empty((band.size, 3))
-    for s in range(0, band.size, _CHUNK):
-        e = min(s + _CHUNK, band.size)
-        rows = np.arange(s, e)
-        p, m = plus[s:e], minus[s:e]
-        D = np.empty((e - s, 3, 3))
-        for a in range(3):
-            hi = np.where(p[:, a] >= 0, p[:, a], rows)
-            lo = np.where(m[:, a] >= 0, m[:, a], rows)
-            span = h * ((p[:, a] >= 0).astype(np.float64) + (m[:, a] >= 0))
-            D[:, :, a] = (band.cp[hi] - band.cp[lo]) / np.where(span > 0, span, 1.0)[:, None]
-        values, vectors = np.linalg.eigh(0.5 * (D + D.transpose(0, 2, 1)))
-        nearest = np.argmin(np.abs(values), axis=1)
-        n = np.take_along_axis(vectors, nearest[:, None, None], axis=2)[:, :, 0]
-        lost = ~np.all((p >= 0) | (m >= 0), axis=1)
-        if lost.any():
-            off, length = _unit(band.points[s:e][lost] - band.cp[s:e][lost])
-            if np.any(length < 0.5 * h):
-                raise RuntimeError("a band point near the surface lacks grid neighbours; the band is too thin")
-            n[lost] = off
-        normals[s:e] = n
-    if extend:
-        pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-        lines = np.column_stack([normals[:, a] * normals[:, b] for a, b in pairs])
-        lines = band.extend(lines.astype(np.float32))
-        for s in range(0, band.size, _CHUNK):
-            e = min(s + _CHUNK, band.size)
-            M = np.empty((e - s, 3, 3))
-            for k, (a, b) in enumerate(pairs):
-                M[:, a, b] = M[:, b, a] = lines[s:e, k]
-            normals[s:e] = np.linalg.eigh(M)[1][:, :, 2]
-    offset = band.points - band.cp
-    flip = np.einsum("ij,ij->i", normals, offset) < 0
-    normals[flip] *= -1.0
-    return normals
 
 
 def parametric_mesh(point, n_u, n_v, *, periodic_u=False, periodic_v=False):

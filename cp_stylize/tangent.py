@@ -7,20 +7,23 @@ Two routes give the orthonormal tangent basis ``Q = [q1 | q2]`` (N, 3, 2):
   point is the tangent projector ``I - n n^T`` (eqs. (32)-(33)): its
   eigenvector of the eigenvalue 0 is the normal.
 
-At a band point ``x`` the Jacobian is estimated by central differences of the
-closest points of its grid neighbours; its null direction is the normal at
-``cp(x)``.  Points without all six neighbours in the band lie far enough from
-the surface (more than ``2 h``) that ``(x - cp(x)) / dist`` is the normal at
-``cp(x)`` to rounding accuracy, and that is used there.
+At a band point ``x`` the Jacobian is estimated by differences of the closest
+points of its grid neighbours; its null direction is the normal at ``cp(x)``
+(see :func:`jacobian_normals`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .band import STENCILS
-
 __all__ = ["householder_basis", "jacobian_normals", "surface_normals", "tangent_basis"]
+
+_CHUNK = 1 << 16
+
+
+def _unit_rows(v):
+    length = np.linalg.norm(v, axis=1)
+    return v / np.where(length > 0, length, 1.0)[:, None], length
 
 
 def householder_basis(normals):
@@ -45,23 +48,78 @@ def householder_basis(normals):
     return H
 
 
-def jacobian_normals(band):
-    """Unit normals (N, 3) at the band's closest points from the Jacobian of ``cp`` (eqs. (32)-(33))."""
-    nbr = band.neighbors(STENCILS["laplacian"][1:])  # +x, +y, +z, -x, -y, -z
-    full = np.all(nbr >= 0, axis=1)
+def jacobian_normals(band, *, extend=True):
+    """Unit normals (N, 3) at the band's closest points from the Jacobian of ``cp`` (eqs. (32)-(33)).
+
+    At a surface point the Jacobian of the closest point function is the
+    tangent projector ``D cp = I - n n^T`` (eq. (33)); off the surface it
+    still maps the normal to zero.  ``D cp`` at each band point is estimated
+    by central differences of ``band.cp`` over the grid neighbours along
+    each axis (one-sided where one neighbour is missing), symmetrised, and
+    its eigenvector of the eigenvalue nearest zero is the normal there.
+
+    Parameters
+    ----------
+    band : Band
+        Any band (analytic surface or mesh).
+    extend : bool
+        Replace each estimate by the closest point extension of the field:
+        ``E`` applied to the six components of ``n n^T`` (an orientation-free
+        line field), then the leading eigenvector.  Every band point then
+        carries the normal estimated near its closest point, where the
+        estimate is best.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        Unit normals, oriented along ``x - cp(x)`` where ``x`` is off the
+        surface.
+
+    Notes
+    -----
+    Where an axis has neither neighbour in the band the point lies near the
+    band's edge, at least ``width - h`` from the surface, and
+    ``(x - cp) / |x - cp|`` is used.  On a mesh ``cp`` is only piecewise
+    smooth (planar over face regions, linear over edge regions), and
+    differences taken far from the surface mix those pieces; on a sphere of
+    16k triangles the raw estimate is within about 1 degree of the exact
+    normal within ``h`` of the surface but up to 9 degrees at the band's
+    edge, and the extended one within 1 degree everywhere.
+    """
+    axes = np.eye(3, dtype=np.int64)
+    plus, minus = band.neighbors(axes), band.neighbors(-axes)
+    h = band.h
     normals = np.empty((band.size, 3))
-    far = band.points[~full] - band.cp[~full]
-    dist = np.linalg.norm(far, axis=1)
-    if np.any(dist < 1.5 * band.h):
-        raise RuntimeError("a band point near the surface lacks grid neighbours; the band is too thin")
-    normals[~full] = far / dist[:, None]
-    idx = nbr[full]
-    # D cp[:, a] = (cp(x + h e_a) - cp(x - h e_a)) / 2h, symmetrised: the projector I - n n^T
-    D = (band.cp[idx[:, :3]] - band.cp[idx[:, 3:]]).transpose(0, 2, 1) / (2.0 * band.h)
-    D = 0.5 * (D + D.transpose(0, 2, 1))
-    _, vectors = np.linalg.eigh(D)
-    normals[full] = vectors[:, :, 0]  # eigenvalue closest to 0: eigh sorts ascending
-    # orient consistently with (x - cp) where that is well defined, else keep the sign
+    for s in range(0, band.size, _CHUNK):
+        e = min(s + _CHUNK, band.size)
+        rows = np.arange(s, e)
+        p, m = plus[s:e], minus[s:e]
+        D = np.empty((e - s, 3, 3))
+        for a in range(3):
+            hi = np.where(p[:, a] >= 0, p[:, a], rows)
+            lo = np.where(m[:, a] >= 0, m[:, a], rows)
+            span = h * ((p[:, a] >= 0).astype(np.float64) + (m[:, a] >= 0))
+            D[:, :, a] = (band.cp[hi] - band.cp[lo]) / np.where(span > 0, span, 1.0)[:, None]
+        values, vectors = np.linalg.eigh(0.5 * (D + D.transpose(0, 2, 1)))
+        nearest = np.argmin(np.abs(values), axis=1)
+        n = np.take_along_axis(vectors, nearest[:, None, None], axis=2)[:, :, 0]
+        lost = ~np.all((p >= 0) | (m >= 0), axis=1)
+        if lost.any():
+            off, length = _unit_rows(band.points[s:e][lost] - band.cp[s:e][lost])
+            if np.any(length < 0.5 * h):
+                raise RuntimeError("a band point near the surface lacks grid neighbours; the band is too thin")
+            n[lost] = off
+        normals[s:e] = n
+    if extend:
+        pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+        lines = np.column_stack([normals[:, a] * normals[:, b] for a, b in pairs])
+        lines = band.extend(lines.astype(np.float32))
+        for s in range(0, band.size, _CHUNK):
+            e = min(s + _CHUNK, band.size)
+            M = np.empty((e - s, 3, 3))
+            for k, (a, b) in enumerate(pairs):
+                M[:, a, b] = M[:, b, a] = lines[s:e, k]
+            normals[s:e] = np.linalg.eigh(M)[1][:, :, 2]
     offset = band.points - band.cp
     flip = np.einsum("ij,ij->i", normals, offset) < 0
     normals[flip] *= -1.0
@@ -85,7 +143,7 @@ def surface_normals(band, normals=None):
         if normal is None:
             return jacobian_normals(band)
         if band.face is not None:
-            return np.asarray(normal(band.cp, face=band.face), dtype=np.float64)
+            return np.asarray(normal(band.cp, band.face, band.bary), dtype=np.float64)
         return np.asarray(normal(band.cp), dtype=np.float64)
     if isinstance(normals, str):
         if normals != "jacobian":

@@ -259,3 +259,15 @@ def test_a_tiny_stop_time_takes_one_step_with_full_size_smoothing_steps(small_ba
     _run(small_band, _image(small_band), "ced", T=1e-9, progress=calls.append)
     # one outer step; the structure tensor's heat solves keep their own 0.15 h^2 steps
     assert calls[-1] == 1.0 and len(calls) < 100
+
+
+def test_jacobian_tangent_basis_matches_the_analytic_one(small_band):
+    from cp_stylize.tangent import jacobian_normals
+
+    n = jacobian_normals(small_band)
+    exact = small_band.cp / np.linalg.norm(small_band.cp, axis=1)[:, None]
+    assert np.degrees(np.arccos(np.clip(np.abs(np.sum(n * exact, axis=1)), 0, 1))).max() < 1.0
+    u0 = _image(small_band)
+    a = _run(small_band, u0, "eed")
+    b = _run(small_band, u0, "eed", normals="jacobian")
+    assert np.abs(a - b).max() < 0.02 and np.abs(a - u0).max() > 0.05
