@@ -227,6 +227,9 @@ def prepare(obj, settings, depsgraph=None):
             colours.corner_colours = flat
     finally:
         evaluated.to_mesh_clear()
+    if uvs is None and not same_topology:
+        raise StylizeError(f"{obj.name!r} has no UV map and modifiers that change its topology; "
+                           "add a UV map or apply the modifiers first")
     job = Job(obj=obj, vertices=verts, faces=tris, loops=loops, material_index=mat_index, uvs=uvs, uv_name=uv_name,
               colours=colours, sources=sources, settings=settings, same_topology=same_topology)
     if "procedural" in sources.values():

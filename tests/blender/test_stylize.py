@@ -164,6 +164,32 @@ def test_an_object_without_uvs_gets_an_atlas(addon):
     assert out[..., 0].max() > 0.7 and out[..., 2].max() > 0.7  # both ends of the gradient are there
 
 
+def test_an_object_with_two_materials(addon):
+    from cp_stylize.blender import scene
+
+    obj, painted, source = _textured_sphere(name="Duo")
+    plain = bpy.data.materials.new("Plain")
+    if plain.node_tree is None:
+        plain.use_nodes = True
+    next(n for n in plain.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Base Color"].default_value = (
+        0.0, 0.8, 0.0, 1.0)
+    obj.data.materials.append(plain)
+    centres = np.array([p.center.z for p in obj.data.polygons])
+    obj.data.polygons.foreach_set("material_index", (centres < 0).astype(np.int32))
+    addon.mode, addon.time = "gaussian", 1e-5
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    image = bpy.data.images["Duo_stylized"]
+    copies = [slot.material for slot in obj.material_slots]
+    assert [m.name for m in copies] == ["Painted_stylized", "Plain_stylized"]
+    assert all(m.node_tree.nodes["cp_stylize"].image is image for m in copies)
+    out = _pixels(image)[..., :3]
+    h = out.shape[0]
+    # the UV sphere's lower half (v < 1/2) is the plain green material, the upper half the painted one
+    lower, upper = out[h // 16:h // 2 - h // 16], out[h // 2 + h // 16:-h // 16]
+    assert lower[..., 1].min() > 0.6 and lower[..., 0].max() < 0.2
+    assert np.abs(upper - lower.mean(axis=(0, 1))).max() > 0.3
+
+
 def _error_case(name, addon):
     """Set up the scene for an error case; returns the operator call."""
     from cp_stylize.blender import scene
