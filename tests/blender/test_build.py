@@ -83,6 +83,31 @@ def test_linux_zip_installs_its_wheels_and_the_operator_runs(linux_zip, tmp_path
         assert addon_utils.check("bl_ext.user_default.cp_stylize")[1], "not enabled"
         bpy.ops.mesh.primitive_uv_sphere_add(radius=2.0)
         assert bpy.ops.object.cp_stylize_estimate() == {{"FINISHED"}}
+        # Starry Night from the installed extension on an image-textured sphere
+        obj = bpy.context.active_object
+        image = bpy.data.images.new("Source", 64, 64)
+        pixels = numpy.ones((64, 64, 4), numpy.float32)
+        pixels[..., :3] = numpy.linspace(0.3, 0.9, 64)[:, None, None]
+        image.pixels.foreach_set(pixels.ravel())
+        image.pack()
+        material = bpy.data.materials.new("Source")
+        if material.node_tree is None:
+            material.use_nodes = True
+        tree = material.node_tree
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+        tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+        obj.data.materials.append(material)
+        bpy.context.scene.cp_stylize.image_size = "512"
+        assert bpy.ops.object.cp_stylize(preset="starry_night", quality="PREVIEW") == {{"FINISHED"}}
+        copy = obj.material_slots[0].material
+        assert copy.name == "Source_stylized" and copy.node_tree.nodes["cp_stylize"].image.name == "Sphere_stylized"
+        out = numpy.empty(512 * 512 * 4, numpy.float32)
+        bpy.data.images["Sphere_stylized"].pixels.foreach_get(out)
+        out = out.reshape(-1, 4)
+        assert (out[:, 2] > out[:, 0]).mean() > 0.5  # the painting's blues over a grey source
+        print("STYLIZED", copy.name)
         import scipy, xatlas
         print("SCIPY", scipy.__version__, scipy.__file__)
         print("XATLAS", xatlas.__file__)
@@ -97,5 +122,6 @@ def test_linux_zip_installs_its_wheels_and_the_operator_runs(linux_zip, tmp_path
     lines = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if line.startswith(("SCIPY", "XATLAS")))
     scipy_version, scipy_file = lines["SCIPY"].split(" ", 1)
     assert scipy_version == pins()["scipy"]
+    assert "STYLIZED Source_stylized" in proc.stdout
     for path in (scipy_file, lines["XATLAS"]):
         assert os.path.realpath(path).startswith(os.path.realpath(home)), path
