@@ -1,0 +1,95 @@
+"""The sidebar panels draw without errors and name only real properties and operators."""
+
+import types
+
+import pytest
+
+bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
+
+pytestmark = pytest.mark.blender
+
+
+class FakeLayout:
+    """Records what a panel draws and checks every property and operator it names."""
+
+    def __init__(self, log):
+        self.log = log
+        self.use_property_split = self.use_property_decorate = False
+
+    def _child(self, *args, **kwargs):
+        return FakeLayout(self.log)
+
+    row = column = box = _child
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, f"no property {name!r} on {data!r}"
+        self.log.append(("prop", name))
+
+    def operator(self, idname, **kwargs):
+        module, name = idname.split(".")
+        assert hasattr(getattr(bpy.ops, module), name) and getattr(getattr(bpy.ops, module), name).poll is not None
+        getattr(getattr(bpy.ops, module), name).get_rna_type()  # raises if not registered
+        self.log.append(("operator", idname))
+        return types.SimpleNamespace()
+
+    def menu(self, idname, **kwargs):
+        assert hasattr(bpy.types, idname), idname
+        self.log.append(("menu", idname))
+
+    def label(self, text="", **kwargs):
+        self.log.append(("label", text))
+
+    def separator(self, **kwargs):
+        pass
+
+
+@pytest.fixture
+def registered():
+    import cp_stylize.blender as addon
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon.register()
+    yield bpy.context.scene.cp_stylize
+    addon.unregister()
+
+
+@pytest.mark.parametrize("mode", ["ced", "eed", "perona_malik", "gaussian", "beltrami"])
+def test_every_panel_draws_for_every_mode(registered, mode):
+    from cp_stylize.blender import panel
+
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    registered.mode = mode
+    registered.palette.add()
+    context = bpy.context
+    log = []
+    for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_noise, panel.VIEW3D_PT_cp_stylize_output,
+                panel.CP_STYLIZE_MT_presets):
+        cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
+    props = {name for kind, name in log if kind == "prop"}
+    assert {"mode", "quality", "time"} <= props
+    assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode == "ced")
+    assert ("operator", "object.cp_stylize") in log
+    # the estimate box shows the spacing, the band size and a time
+    labels = [text for kind, text in log if kind == "label"]
+    assert any("band points" in t for t in labels) and any(t.startswith("Roughly") for t in labels)
+    # the preset menu lists the shipped presets
+    assert sum(1 for kind, name in log if kind == "operator" and name == "cp_stylize.preset_load") >= 6
+
+
+def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path, monkeypatch):
+    from cp_stylize.blender import operators
+
+    monkeypatch.setattr(operators, "user_preset_dir", lambda create=False: str(tmp_path))
+    assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
+    assert registered.mode == "ced" and registered.b_rel == pytest.approx(1e-6) and len(registered.palette) == 12
+    assert registered.quality == "HIGH"
+    registered.time = 3e-4
+    assert bpy.ops.cp_stylize.preset_add(name="My Look") == {"FINISHED"}
+    assert (tmp_path / "my_look.toml").exists() and "my_look" in operators.all_presets()
+    assert bpy.ops.cp_stylize.preset_load(name="denoise_eed") == {"FINISHED"}
+    assert bpy.ops.cp_stylize.preset_load(name="my_look") == {"FINISHED"}
+    assert registered.time == pytest.approx(3e-4) and registered.mode == "ced"
+    with pytest.raises(RuntimeError, match="not a user preset"):
+        bpy.ops.cp_stylize.preset_remove(name="starry_night")
+    assert bpy.ops.cp_stylize.preset_remove(name="my_look") == {"FINISHED"}
+    assert not (tmp_path / "my_look.toml").exists()
