@@ -308,6 +308,8 @@ def run_core(job, progress=None, log=None):
 def apply(job, *, image_name="", target="NEW_MATERIAL", storage="PACK"):
     """Create the stylized image and wire it into the object's materials; returns the image."""
     obj, result = job.obj, job.result
+    if storage == "SAVE" and not bpy.data.filepath:
+        raise StylizeError("save the .blend file first to save the image next to it, or choose Pack")
     atlas_is_new = getattr(result.atlas, "generated", False) or job.uvs is None
     uv_name = job.uv_name
     if atlas_is_new:
@@ -318,9 +320,6 @@ def apply(job, *, image_name="", target="NEW_MATERIAL", storage="PACK"):
     name = image_name or f"{obj.name}_stylized"
     image = images.array_to_image(name, result.image)
     if storage == "SAVE":
-        if not bpy.data.filepath:
-            bpy.data.images.remove(image)
-            raise StylizeError("save the .blend file first to save the image next to it, or choose Pack")
         image.filepath_raw = os.path.join(os.path.dirname(bpy.data.filepath), bpy.path.clean_name(image.name) + ".png")
         image.file_format = "PNG"
         image.save()

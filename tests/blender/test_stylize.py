@@ -213,6 +213,9 @@ def _error_case(name, addon):
     elif name == "tiled image":
         image = bpy.data.images.new("Tiles", 8, 8, tiled=True)
         _textured_sphere(image)
+    elif name == "save without a file":
+        _textured_sphere()
+        addon.storage, addon.mode, addon.time = "SAVE", "gaussian", 1e-5
     elif name == "memory limit":
         _textured_sphere()
         addon.memory_limit = 0.1
@@ -226,6 +229,7 @@ def _error_case(name, addon):
     ("missing image file", "is missing"),
     ("tiled image", "tiled"),
     ("memory limit", "above the memory limit"),
+    ("save without a file", "save the .blend file first"),
 ])
 def test_errors_are_reported_and_change_nothing(addon, case, message):
     _error_case(case, addon)
@@ -276,3 +280,12 @@ def test_a_run_is_one_undo_step(addon):
     addon.mode, addon.time = "gaussian", 1e-4
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
     assert obj.material_slots[0].material.name == "Painted_stylized" and material.use_fake_user
+
+
+def test_the_image_can_be_saved_next_to_the_blend_file(addon, tmp_path):
+    obj, _, _ = _textured_sphere()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    addon.storage, addon.mode, addon.time, addon.image_name = "SAVE", "gaussian", 1e-5, "Ball Look"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    image = bpy.data.images["Ball Look"]
+    assert image.packed_file is None and (tmp_path / "Ball_Look.png").stat().st_size > 1000
