@@ -36,12 +36,15 @@ class CP_STYLIZE_MT_presets(bpy.types.Menu):
             layout.operator("cp_stylize.preset_load", text=bpy.path.display_name(name)).name = name
 
 
-class VIEW3D_PT_cp_stylize(bpy.types.Panel):
-    bl_idname = "VIEW3D_PT_cp_stylize"
-    bl_label = "Stylize"
+class _Sidebar:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Stylize"
+
+
+class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_cp_stylize"
+    bl_label = "Stylize"
 
     def draw(self, context):
         settings = context.scene.cp_stylize
@@ -80,11 +83,8 @@ class VIEW3D_PT_cp_stylize(bpy.types.Panel):
             col.prop(settings, "lambda_rel")
 
 
-class VIEW3D_PT_cp_stylize_noise(bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
     bl_label = "Noise"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Stylize"
     bl_parent_id = "VIEW3D_PT_cp_stylize"
     bl_options = {"DEFAULT_CLOSED"}
 
@@ -102,11 +102,8 @@ class VIEW3D_PT_cp_stylize_noise(bpy.types.Panel):
         layout.operator("cp_stylize.palette_add", icon="ADD")
 
 
-class VIEW3D_PT_cp_stylize_output(bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
     bl_label = "Output"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Stylize"
     bl_parent_id = "VIEW3D_PT_cp_stylize"
 
     def draw(self, context):

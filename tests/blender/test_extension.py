@@ -65,6 +65,7 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
 def test_register_unregister_register_again():
     import cp_stylize.blender as addon
 
+    bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
     try:
         assert hasattr(bpy.types.Scene, "cp_stylize")
