@@ -1,7 +1,6 @@
 """Operators of the add-on: Stylize, the band estimate, presets and the noise palette."""
 
 import os
-import threading
 import time
 
 import bpy
@@ -51,10 +50,6 @@ class OBJECT_OT_cp_stylize_estimate(bpy.types.Operator):
         self.report({"INFO"}, f"grid spacing {h:.4g}, about {n:,} band points, {nbytes / 2**20:.0f} MiB, "
                               f"roughly {seconds:.0f} s")
         return {"FINISHED"}
-
-
-class Cancelled(Exception):
-    """Raised in the worker when the user cancels."""
 
 
 class OBJECT_OT_cp_stylize(bpy.types.Operator):
@@ -133,22 +128,8 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         except (ValueError, RuntimeError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
-        self._fraction, self._error, self._cancel = 0.0, None, threading.Event()
-
-        def progress(fraction):
-            self._fraction = fraction
-            if self._cancel.is_set():
-                raise Cancelled
-
-        def work():
-            try:
-                stylize.run_core(self._job, progress=progress)
-            except BaseException as err:  # reported on the main thread
-                self._error = err
-
-        self._thread = threading.Thread(target=work, daemon=True)
+        self._run = stylize.BackgroundRun(self._job).start()
         self._start = time.perf_counter()
-        self._thread.start()
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.2, window=context.window)
         wm.progress_begin(0, 100)
@@ -156,26 +137,27 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
+        run = self._run
         if event.type == "ESC" and event.value == "PRESS":
-            self._cancel.set()
+            run.cancel()
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         wm = context.window_manager
-        wm.progress_update(int(100 * self._fraction))
+        wm.progress_update(int(100 * run.fraction))
         context.workspace.status_text_set(
-            f"Stylizing {self._job.obj.name}: {100 * self._fraction:.0f} % "
+            f"Stylizing {self._job.obj.name}: {100 * run.fraction:.0f} % "
             f"({time.perf_counter() - self._start:.0f} s), Esc to cancel")
-        if self._thread.is_alive():
+        if not run.done:
             return {"RUNNING_MODAL"}
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         context.workspace.status_text_set(None)
-        if isinstance(self._error, Cancelled):
+        if run.cancelled:
             self.report({"WARNING"}, "stylize cancelled; nothing was changed")
             return {"CANCELLED"}
         try:
-            if self._error is not None:
-                raise self._error
+            if run.error is not None:
+                raise run.error
             self._finish(context, self._job)
         except (ValueError, RuntimeError, FloatingPointError, MemoryError, ReferenceError) as err:
             self.report({"ERROR"}, str(err))

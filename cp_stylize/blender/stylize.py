@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import threading
 
 import bpy
 import numpy as np
@@ -300,6 +301,56 @@ def run_core(job, progress=None, log=None):
     job.result = stylize(job.vertices, job.faces, job.colours, job.settings, uvs=job.uvs,
                          progress=progress, log=log)
     return job.result
+
+
+class Cancelled(Exception):
+    """Raised inside a background run when the user cancels it."""
+
+
+class BackgroundRun:
+    """:func:`run_core` in a worker thread, with its progress, cancel and outcome.
+
+    The main thread polls :attr:`fraction` and :attr:`done`; :meth:`cancel`
+    makes the worker stop at its next progress report with :class:`Cancelled`
+    as its :attr:`error`.  Nothing here touches Blender data.
+    """
+
+    def __init__(self, job):
+        self.job = job
+        self.fraction = 0.0
+        self.error = None
+        self._cancel = threading.Event()
+        self._thread = threading.Thread(target=self._work, daemon=True)
+
+    def _progress(self, fraction):
+        self.fraction = fraction
+        if self._cancel.is_set():
+            raise Cancelled
+
+    def _work(self):
+        try:
+            run_core(self.job, progress=self._progress)
+        except BaseException as err:  # handed to the main thread
+            self.error = err
+
+    def start(self):
+        self._thread.start()
+        return self
+
+    def cancel(self):
+        self._cancel.set()
+
+    @property
+    def done(self):
+        return self._thread.ident is not None and not self._thread.is_alive()
+
+    @property
+    def cancelled(self):
+        return isinstance(self.error, Cancelled)
+
+    def wait(self, timeout=None):
+        self._thread.join(timeout)
+        return self.done
 
 
 # -- writing ---------------------------------------------------------------------------------

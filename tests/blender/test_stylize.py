@@ -289,3 +289,28 @@ def test_the_image_can_be_saved_next_to_the_blend_file(addon, tmp_path):
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
     image = bpy.data.images["Ball Look"]
     assert image.packed_file is None and (tmp_path / "Ball_Look.png").stat().st_size > 1000
+
+
+def test_a_background_run_reports_progress_and_finishes(addon):
+    from cp_stylize.blender import stylize
+
+    obj, material, _ = _textured_sphere()
+    job = stylize.prepare(obj, addon.to_settings().replace(mode="gaussian", T=1e-5))
+    run = stylize.BackgroundRun(job)
+    assert not run.done
+    run.start()
+    assert run.wait(timeout=600) and run.error is None and not run.cancelled
+    assert run.fraction == 1.0 and job.result.image.shape == (512, 512, 3)
+    assert obj.material_slots[0].material is material  # nothing applied until the main thread does it
+
+
+def test_cancelling_a_background_run_stops_it_and_changes_nothing(addon):
+    from cp_stylize.blender import stylize
+
+    obj, material, _ = _textured_sphere()
+    counts = _counts()
+    run = stylize.BackgroundRun(stylize.prepare(obj, addon.to_settings().replace(mode="ced", T=1e-3)))
+    run.cancel()  # Esc before the first progress report: the worker stops at it
+    run.start()
+    assert run.wait(timeout=600) and run.cancelled and run.job.result is None
+    assert _counts() == counts and obj.material_slots[0].material is material
