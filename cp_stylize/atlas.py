@@ -11,9 +11,9 @@ Texture out
     :func:`bake_to_atlas` maps every texel centre inside a UV triangle to the
     3-D point with the same barycentric coordinates in that face, and takes
     the band's tricubic interpolant there (paper, eq. (47)).  Texels just
-    outside the islands (the margin) take the value of the nearest island
-    border point, so bilinear filtering and mipmaps read no foreign colour
-    across a seam.
+    outside the islands (the margin) continue their island's map onto the
+    surface beyond its border (across the seam), so bilinear filtering and
+    mipmaps read the surface's own colours there, never the background.
 
 Usable UVs
     Per-corner UVs (F, 3, 2) are usable for an atlas of ``size`` x ``size``
