@@ -154,7 +154,8 @@ class Band:
     cp : ndarray, shape (N, 3)
         Their closest points on the surface.
     dist : ndarray, shape (N,)
-        Signed distance from the surface (negative inside a closed surface).
+        Distance from the surface: signed for analytic surfaces (negative
+        inside), unsigned for triangle meshes.
     width : float
         Distance from the surface within which grid points were taken.
     size : int
@@ -202,7 +203,9 @@ class Band:
             A surface may offer ``band_candidates(h, width)`` yielding chunks
             of integer grid coordinates (K, 3) to test, instead of scanning its
             bounding box, and ``closest_point_on_faces(x) -> (cp, dist, face,
-            bary)`` (triangle meshes), which the band then uses and keeps.
+            bary)`` (triangle meshes), which the band then uses and keeps, or
+            ``band_points(h, width)`` yielding chunks ``(ijk, cp, dist, face,
+            bary)`` of exactly the grid points within ``width``.
         h : float
             Grid spacing, in the surface's units.
         stencil : {"laplacian", "anisotropic"}
@@ -226,11 +229,15 @@ class Band:
             raise ValueError(f"safety factor must be >= 1, got {safety!r}")
         width = band_width(h, degree, stencil) * safety
         on_faces = getattr(surface, "closest_point_on_faces", None)
+        own = getattr(surface, "band_points", None)
         parts = []
-        for ijk in _candidates(surface, h, width):
-            found = on_faces(h * ijk) if on_faces is not None else surface.closest_point(h * ijk)
-            keep = np.abs(found[1]) <= width
-            parts.append((ijk[keep],) + tuple(a[keep] for a in found))
+        if own is not None:
+            parts = list(own(h, width))
+        else:
+            for ijk in _candidates(surface, h, width):
+                found = on_faces(h * ijk) if on_faces is not None else surface.closest_point(h * ijk)
+                keep = np.abs(found[1]) <= width
+                parts.append((ijk[keep],) + tuple(a[keep] for a in found))
         if not parts or sum(len(p[0]) for p in parts) == 0:
             raise ValueError(f"the band of {surface!r} at h={h!r} holds no grid point")
         ijk, cp, dist, *faces = (np.concatenate(a) for a in zip(*parts))
