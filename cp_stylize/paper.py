@@ -24,6 +24,7 @@ from . import figures
 from .band import Band
 from .diffusion import diffuse
 from .surfaces import Sphere, Torus
+from .texture import bake_map
 
 FIG4 = {
     "gaussian": {},
@@ -46,9 +47,7 @@ def torus_stripes(band, noise=0.3, seed=0):
 
 def flat_map(band, values, height, width):
     """Band values on the surface parametrisation ``point(s, t)``, top row ``t = 1``: (height, width, C)."""
-    s, t = np.meshgrid((np.arange(width) + 0.5) / width, (np.arange(height) + 0.5) / height)
-    p = band.surface.point(s.ravel(), t.ravel())
-    return band.interpolate(values, p).reshape(height, width, -1)[::-1]
+    return bake_map(band, values, height, width)[::-1]
 
 
 def fig4(out_dir, h=0.0125, log=print):
