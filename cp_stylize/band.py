@@ -186,6 +186,7 @@ class Band:
         self._index = np.full(self._shape, -1, dtype=np.int32 if self.size < 2**31 else np.int64)
         self._index[tuple((self.ijk - self._lo).T)] = np.arange(self.size)
         self._matrices = {}
+        self._stencil_table = None
         self.E = self._interpolation_matrix(self.cp, np.float32)
         self.inner = np.zeros(self.size, dtype=bool)
         self.inner[self.E.indices] = True
@@ -266,16 +267,37 @@ class Band:
         flat = self._flat(np.where(inside[..., None], rel, 0))
         return np.where(inside, self._index.ravel()[flat], -1)
 
-    def neighbors(self, offsets):
-        """Band indices of the grid points at ``offsets`` (K, 3) from each band point: (N, K), -1 if absent."""
+    def neighbors(self, offsets, rows=slice(None)):
+        """Band indices of the grid points at ``offsets`` (K, 3) from each band point: (N, K), -1 if absent.
+
+        ``rows`` (a slice) restricts the band points asked about.
+        """
         offsets = np.asarray(offsets, dtype=np.int64).reshape(-1, 3)
-        return self.lookup(self.ijk[:, None, :] + offsets[None, :, :])
+        known = self._stencil_table
+        if known is not None and rows == slice(None):
+            # the stencil's neighbours are looked up once, when the band is built
+            where = {tuple(o): k for k, o in enumerate(known[0].tolist())}
+            cols = [where.get(tuple(o)) for o in offsets.tolist()]
+            if None not in cols:
+                return known[1][:, cols]
+        reach = int(np.abs(offsets).max()) if len(offsets) else 0
+        index, shape, lo = self._index, self._shape, self._lo
+        if reach > 1:  # the index volume keeps a margin of one point: widen it for longer offsets
+            index = np.pad(index, reach - 1, constant_values=-1)
+            shape, lo = index.shape, lo - (reach - 1)
+        base = _flat(self.ijk[rows] - lo, shape)
+        steps = _flat(offsets, shape)
+        out = np.empty((len(base), len(offsets)), dtype=index.dtype)
+        flat = index.ravel()
+        for k, step in enumerate(steps):
+            np.take(flat, base + step, out=out[:, k])
+        return out
 
     # -- interpolation ------------------------------------------------------
 
     def _flat(self, rel):
         """Flat positions in the index volume of coordinates relative to its corner."""
-        return (rel[..., 0] * self._shape[1] + rel[..., 1]) * self._shape[2] + rel[..., 2]
+        return _flat(rel, self._shape)
 
     def _interpolation_matrix(self, x, dtype):
         x = np.asarray(x, dtype=np.float64)
@@ -286,21 +308,22 @@ class Band:
         g = x / self.h
         base = np.floor(g).astype(np.int64) - (p - 1) // 2
         nodes = np.array(list(itertools.product(range(p + 1), repeat=3)), dtype=np.int64)
-        node_flat = self._flat(nodes)
+        node_flat = self._flat(nodes).astype(self._index.dtype)
         index = self._index.ravel()
         indices = np.empty((len(x), n_w), dtype=index.dtype)
         data = np.empty((len(x), n_w), dtype=dtype)
         for s in range(0, len(x), _CHUNK):
             e = min(s + _CHUNK, len(x))
-            w = [lagrange_weights(g[s:e, a] - base[s:e, a], p) for a in range(3)]
-            data[s:e] = (w[0][:, nodes[:, 0]] * w[1][:, nodes[:, 1]] * w[2][:, nodes[:, 2]])
+            w = [lagrange_weights(g[s:e, a] - base[s:e, a], p).astype(dtype) for a in range(3)]
+            # tensor product, last axis fastest: the order of ``nodes``
+            data[s:e] = (w[0][:, :, None, None] * w[1][:, None, :, None] * w[2][:, None, None, :]).reshape(e - s, n_w)
             rel = base[s:e] - self._lo
             inside = np.all((rel >= 0) & (rel + p < self._shape), axis=1)
-            flat = np.where(inside, self._flat(rel), 0)[:, None] + node_flat[None, :]
-            indices[s:e] = np.where(inside[:, None], index[flat], -1)
-        missing = indices < 0
-        if missing.any():
-            rows = np.flatnonzero(missing.any(axis=1))
+            corner = np.where(inside, self._flat(rel), 0).astype(index.dtype)
+            np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
+            indices[s:e][~inside] = -1
+        if len(x) and indices.min() < 0:
+            rows = np.flatnonzero((indices < 0).any(axis=1))
             raise ValueError(
                 f"{len(rows)} interpolation point(s) have stencil points outside the band "
                 f"(first at {x[rows[0]].tolist()}): interpolate only at points on the surface"
@@ -374,7 +397,9 @@ class Band:
 
     def _check_stencils(self):
         """Every point E reads must have its whole finite difference stencil in the band."""
-        nbr = self.neighbors(_stencil_offsets(self.stencil))
+        offsets = _stencil_offsets(self.stencil)
+        nbr = self.neighbors(offsets)
+        self._stencil_table = (offsets, nbr)
         bad = self.inner & np.any(nbr < 0, axis=1)
         if bad.any():
             raise RuntimeError(
@@ -387,6 +412,11 @@ class Band:
         if v.ndim not in (1, 2) or v.shape[0] != self.size:
             raise ValueError(f"band values must have shape ({self.size},) or ({self.size}, k), got {v.shape}")
         return v.astype(_float_type(v.dtype), copy=False)
+
+
+def _flat(rel, shape):
+    """Flat positions in a C-ordered volume of ``shape`` of coordinates ``rel`` (..., 3)."""
+    return (rel[..., 0] * shape[1] + rel[..., 1]) * shape[2] + rel[..., 2]
 
 
 def _candidates(surface, h, width):

@@ -28,13 +28,22 @@ def _rows_csr(band, rows, cols, data, per_row, dtype):
                           indptr), shape=(band.size, band.size))
 
 
-def gradient_matrices(band, dtype=np.float32):
+def gradient_matrices(band, dtype=np.float32, rows=None):
     """Central differences ``D_a^c v = (v[x + h e_a] - v[x - h e_a]) / 2h`` for a = x, y, z.
 
-    Returns three CSR matrices (N, N) with rows at the band's inner points.
+    Returns three CSR matrices (N, N) with rows at the band points ``rows``
+    (boolean mask), by default the inner points; ``rows="all"`` takes every
+    point whose six face neighbours are in the band.
     """
-    rows = np.flatnonzero(band.inner)
-    nbr = band.neighbors(np.vstack([_AXIS, -_AXIS]))[rows]
+    nbr = band.neighbors(np.vstack([_AXIS, -_AXIS]))
+    if rows is None:
+        rows = band.inner
+    elif isinstance(rows, str) and rows == "all":
+        rows = np.all(nbr >= 0, axis=1)
+    rows = np.flatnonzero(rows)
+    nbr = nbr[rows]
+    if np.any(nbr < 0):
+        raise ValueError("a gradient row lacks a face neighbour in the band")
     coef = np.tile([0.5 / band.h, -0.5 / band.h], (len(rows), 1))
     return tuple(_rows_csr(band, rows, nbr[:, [a, a + 3]], coef, 2, dtype) for a in range(3))
 
@@ -73,6 +82,7 @@ class DivergenceOperator:
         if np.any(self.columns < 0):
             raise RuntimeError("an inner band point lacks part of its 19-point stencil")
         self._template = _rows_csr(band, self.rows, self.columns, np.zeros(self.columns.shape), 19, self.dtype)
+        self._columns_t = None
 
     def coefficients(self, G):
         """Stencil weights (n_inner, 19) for a tensor field ``G`` (6, N) in :data:`TENSOR_COMPONENTS` order."""
@@ -97,6 +107,43 @@ class DivergenceOperator:
         """The CSR matrix A(G) (N, N); rows outside the inner points are empty."""
         A = self._template.copy()
         A.data = self.coefficients(G).astype(self.dtype).ravel()
+        return A
+
+    def fill(self, G, data):
+        """Write the weights of A(G) into ``data`` (19 n_inner,), in A's entry order.
+
+        The numbers of :meth:`coefficients`, computed in G's precision from
+        the 21 gathers they need: each face's diagonal entry, the centre's,
+        and each mixed entry at the four faces of its plane.
+        """
+        if self._columns_t is None:
+            self._columns_t = np.ascontiguousarray(self.columns.T)
+        c = self._columns_t
+        n, h2 = len(self.rows), self.band.h ** 2
+        w = np.empty((19, n), dtype=G.dtype)  # by stencil slot: every step runs along memory
+        for a in range(3):
+            centre = G[a][c[0]]
+            for j in (1 + 2 * a, 2 + 2 * a):
+                np.add(centre, G[a][c[j]], out=w[j])
+        w[1:7] *= 0.5 / h2
+        np.sum(w[1:7], axis=0, out=w[0])
+        np.negative(w[0], out=w[0])
+        comp = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
+        at = {}
+        for k, (a, b, sa, sb) in enumerate(self._diagonals):
+            g = G[comp[(a, b)]]
+            for axis, sign in ((a, sa), (b, sb)):
+                if (a, b, axis, sign) not in at:
+                    at[(a, b, axis, sign)] = g[c[1 + 2 * axis + (0 if sign > 0 else 1)]]
+            np.add(at[(a, b, a, sa)], at[(a, b, b, sb)], out=w[7 + k])
+            w[7 + k] *= sa * sb / (4.0 * h2)
+        data.reshape(n, 19)[:] = w.T
+        return data
+
+    def template(self):
+        """A(G) with all weights zero: its ``data`` can be filled in place."""
+        A = self._template.copy()
+        A.data = np.zeros_like(A.data)
         return A
 
     @staticmethod

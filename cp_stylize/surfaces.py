@@ -33,14 +33,14 @@ def _as_points(x):
 
 
 def _unit_rows(v, fallback):
-    """Normalise rows of ``v``; rows of zero length become ``fallback``."""
+    """Normalise rows of ``v``; rows of zero length become ``fallback``.  Returns ``(unit rows, lengths)``."""
     n = np.linalg.norm(v, axis=1)
     zero = n == 0.0
-    if np.any(zero):
-        v = v.copy()
-        v[zero] = fallback
-        n = np.where(zero, 1.0, n)
-    return v / n[:, None], n
+    if not np.any(zero):
+        return v / n[:, None], n
+    v = v.copy()
+    v[zero] = fallback
+    return v / np.where(zero, 1.0, n)[:, None], n
 
 
 class Sphere:

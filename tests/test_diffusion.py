@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cp_stylize import Band, Sphere, Torus
-from cp_stylize.diffusion import DEFAULTS, MODES, diffuse
+from cp_stylize.diffusion import DEFAULTS, MODES, SCHEMES, diffuse
 
 PAPER_H = 0.0125
 
@@ -15,11 +15,17 @@ def scaled(h, **times):
     return {k: v * factor for k, v in times.items()}
 
 
+@pytest.fixture(params=SCHEMES, scope="module")
+def scheme(request):
+    """Every test of a filter's properties runs with both schemes."""
+    return request.param
+
+
 # -- denoising on the torus (paper, Fig. 4) ------------------------------------------------
 
 
 @pytest.fixture(scope="module")
-def torus_runs():
+def torus_runs(scheme):
     h = 0.05
     torus = Torus(1.0, 0.4)
     band = Band.build(torus, h, stencil="anisotropic")
@@ -28,9 +34,9 @@ def torus_runs():
     noisy = band.extend(clean + np.random.default_rng(0).normal(0, 0.3, band.size).astype(np.float32))
     T = scaled(h, T=7e-4)["T"]
     runs = {
-        "gaussian": diffuse(band, noisy, mode="gaussian", T=T),
-        "perona_malik": diffuse(band, noisy, mode="perona_malik", T=T, **scaled(h, sigma=1.2e-4)),
-        "eed": diffuse(band, noisy, mode="eed", T=T, **scaled(h, sigma=1.2e-4, rho=3.5e-4)),
+        "gaussian": diffuse(band, noisy, mode="gaussian", T=T, scheme=scheme),
+        "perona_malik": diffuse(band, noisy, mode="perona_malik", T=T, scheme=scheme, **scaled(h, sigma=1.2e-4)),
+        "eed": diffuse(band, noisy, mode="eed", T=T, scheme=scheme, **scaled(h, sigma=1.2e-4, rho=3.5e-4)),
     }
     S, U = np.meshgrid((np.arange(400) + 0.5) / 400, (np.arange(160) + 0.5) / 160)
     M = band.interpolation_matrix(torus.point(S.ravel(), U.ravel()))
@@ -91,7 +97,7 @@ def coherence_measure(band, u, sigma, rho):
     return float(np.mean((mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)))
 
 
-def test_ced_raises_coherence_of_a_ridge_pattern():
+def test_ced_raises_coherence_of_a_ridge_pattern(scheme):
     h = 0.05
     band = Band.build(Sphere(), h, stencil="anisotropic")
     x, y, z = band.cp.T
@@ -99,7 +105,7 @@ def test_ced_raises_coherence_of_a_ridge_pattern():
     rng = np.random.default_rng(1)
     u0 = band.extend((ridges + rng.normal(0, 0.25, band.size)).astype(np.float32))
     params = scaled(h, sigma=1e-4, rho=4e-4)
-    u = diffuse(band, u0, mode="ced", T=scaled(h, T=6e-4)["T"], alpha=1e-3, b_rel=1e-3, **params)
+    u = diffuse(band, u0, mode="ced", T=scaled(h, T=6e-4)["T"], alpha=1e-3, b_rel=1e-3, scheme=scheme, **params)
     before, after = (coherence_measure(band, v, **scaled(h, sigma=2e-5, rho=4e-4)) for v in (u0, u))
     print(f"\ncoherence before {before:.3f}, after {after:.3f}")
     assert after > before + 0.1
@@ -126,31 +132,31 @@ def _image(band, dtype=np.float32):
     return band.extend(_image_at(band.cp).astype(dtype))
 
 
-def _run(band, u, mode, **kw):
+def _run(band, u, mode, scheme="fast", **kw):
     kw.setdefault("T", FEW_STEPS)
-    return diffuse(band, u, mode=mode, **scaled(H, **{k: v for k, v in DEFAULTS[mode].items()
+    return diffuse(band, u, mode=mode, scheme=scheme, **scaled(H, **{k: v for k, v in DEFAULTS[mode].items()
                                                       if k in ("sigma", "rho")}), **kw)
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_constant_image_stays_constant(small_band, mode):
-    u = _run(small_band, np.full(small_band.size, 0.3, np.float32), mode)
+def test_constant_image_stays_constant(small_band, mode, scheme):
+    u = _run(small_band, np.full(small_band.size, 0.3, np.float32), mode, scheme)
     assert np.all(np.isfinite(u))
     np.testing.assert_allclose(u, 0.3, atol=1e-6)
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_shift_invariance(small_band, mode):
+def test_shift_invariance(small_band, mode, scheme):
     u = _image(small_band, np.float64)
-    a = _run(small_band, u + 3.0, mode, clamp=False)
-    b = _run(small_band, u, mode, clamp=False) + 3.0
+    a = _run(small_band, u + 3.0, mode, scheme, clamp=False)
+    b = _run(small_band, u, mode, scheme, clamp=False) + 3.0
     np.testing.assert_allclose(a, b, atol=1e-9)
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_reverse_contrast(small_band, mode):
+def test_reverse_contrast(small_band, mode, scheme):
     u = _image(small_band, np.float64)
-    np.testing.assert_allclose(_run(small_band, -u, mode), -_run(small_band, u, mode), atol=1e-12)
+    np.testing.assert_allclose(_run(small_band, -u, mode, scheme), -_run(small_band, u, mode, scheme), atol=1e-12)
 
 
 def _surface_mean(band, u, n=20000):
@@ -160,24 +166,24 @@ def _surface_mean(band, u, n=20000):
 
 
 @pytest.mark.parametrize("mode", ["gaussian", "perona_malik", "eed", "ced"])
-def test_mean_grey_level_drifts_by_less_than_one_percent(small_band, mode):
+def test_mean_grey_level_drifts_by_less_than_one_percent(small_band, mode, scheme):
     u0 = _image(small_band)
-    u = _run(small_band, u0, mode, T=4 * FEW_STEPS)
+    u = _run(small_band, u0, mode, scheme, T=4 * FEW_STEPS)
     m0, m = _surface_mean(small_band, u0), _surface_mean(small_band, u)
     assert abs(m - m0) < 0.01 * abs(m0)
     assert np.abs(u - u0).max() > 0.05  # the image really changed
 
 
 @pytest.mark.parametrize("mode", ["gaussian", "perona_malik"])
-def test_gaussian_and_perona_malik_stay_within_the_initial_range(small_band, mode):
+def test_gaussian_and_perona_malik_stay_within_the_initial_range(small_band, mode, scheme):
     u0 = _image(small_band)
-    u = _run(small_band, u0, mode, T=4 * FEW_STEPS, clamp=False)
+    u = _run(small_band, u0, mode, scheme, T=4 * FEW_STEPS, clamp=False)
     span = u0.max() - u0.min()
     assert u.min() >= u0.min() - 1e-3 * span and u.max() <= u0.max() + 1e-3 * span
 
 
 @pytest.mark.parametrize("mode", ["perona_malik", "eed", "ced", "beltrami"])
-def test_scale_invariance(mode):
+def test_scale_invariance(mode, scheme):
     # radius 2 at twice the spacing, times four times as long, relative parameters unchanged
     small = Band.build(Sphere(1.0), H, stencil="anisotropic")
     big = Band.build(Sphere(2.0), 2 * H, stencil="anisotropic")
@@ -186,17 +192,18 @@ def test_scale_invariance(mode):
     assert np.mean(same >= 0) > 0.999 and np.all(small.inner[same < 0] == 0)
     u0 = _image(small, np.float64)
     params = scaled(H, **{k: v for k, v in DEFAULTS[mode].items() if k in ("sigma", "rho")})
-    a = diffuse(small, u0, mode=mode, T=FEW_STEPS, **params)
-    b = diffuse(big, big.extend(_image_at(big.cp / 2)), mode=mode, T=4 * FEW_STEPS, **{k: 4 * v for k, v in params.items()})
-    assert np.abs(a - u0).max() > 0.05
+    a = diffuse(small, u0, mode=mode, T=FEW_STEPS, scheme=scheme, **params)
+    b = diffuse(big, big.extend(_image_at(big.cp / 2)), mode=mode, T=4 * FEW_STEPS, scheme=scheme,
+                **{k: 4 * v for k, v in params.items()})
+    assert np.abs(a - u0).max() > 0.03  # the image really changed
     np.testing.assert_allclose(a[same >= 0], b[same[same >= 0]], atol=1e-9)
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_colour_channels_share_one_tensor(small_band, mode):
+def test_colour_channels_share_one_tensor(small_band, mode, scheme):
     grey = _image(small_band, np.float64)
-    rgb = _run(small_band, np.repeat(grey[:, None], 3, axis=1), mode)
-    single = _run(small_band, grey, mode)
+    rgb = _run(small_band, np.repeat(grey[:, None], 3, axis=1), mode, scheme)
+    single = _run(small_band, grey, mode, scheme)
     assert rgb.shape == (small_band.size, 3)
     for k in range(3):
         np.testing.assert_allclose(rgb[:, k], single, atol=1e-12)
@@ -206,31 +213,31 @@ def test_colour_channels_share_one_tensor(small_band, mode):
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_a_single_spike_gives_no_nan(small_band, mode):
+def test_a_single_spike_gives_no_nan(small_band, mode, scheme):
     u = np.zeros(small_band.size, np.float32)
     u[small_band.size // 2] = 1.0
-    assert np.all(np.isfinite(_run(small_band, u, mode)))
+    assert np.all(np.isfinite(_run(small_band, u, mode, scheme)))
 
 
-def test_progress_rises_and_a_raising_callback_stops_the_run(small_band):
+def test_progress_rises_and_a_raising_callback_stops_the_run(small_band, scheme):
     u0 = _image(small_band)
     keep = u0.copy()
     seen = []
-    _run(small_band, u0, "eed", progress=seen.append)
-    assert seen[-1] == pytest.approx(1.0) and np.all(np.diff(seen) >= 0) and len(seen) > 10
+    _run(small_band, u0, "eed", scheme, progress=seen.append)
+    assert seen[-1] == pytest.approx(1.0) and np.all(np.diff(seen) >= 0) and len(seen) >= 10
 
     def cancel(fraction):
         if fraction > 0.3:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        _run(small_band, u0, "ced", progress=cancel)
+        _run(small_band, u0, "ced", scheme, progress=cancel)
     np.testing.assert_array_equal(u0, keep)
 
 
 @pytest.mark.parametrize("kwargs, message", [
     (dict(mode="blur"), "mode must be one of"),
-    (dict(mode="eed", scheme="fast"), "scheme must be"),
+    (dict(mode="eed", scheme="quick"), "scheme must be one of"),
     (dict(mode="eed", sigma=-1.0), "sigma must be a non-negative number"),
     (dict(mode="ced", alpha=2.0), r"alpha must lie in \[0, 1\]"),
     (dict(mode="eed", T=-1.0), "time must be a non-negative number"),
@@ -256,18 +263,52 @@ def test_nan_input_is_refused(small_band):
 
 def test_a_tiny_stop_time_takes_one_step_with_full_size_smoothing_steps(small_band):
     calls = []
-    _run(small_band, _image(small_band), "ced", T=1e-9, progress=calls.append)
+    _run(small_band, _image(small_band), "ced", "reference", T=1e-9, progress=calls.append)
     # one outer step; the structure tensor's heat solves keep their own 0.15 h^2 steps
     assert calls[-1] == 1.0 and len(calls) < 100
 
 
-def test_jacobian_tangent_basis_matches_the_analytic_one(small_band):
+def test_jacobian_tangent_basis_matches_the_analytic_one(small_band, scheme):
     from cp_stylize.tangent import jacobian_normals
 
     n = jacobian_normals(small_band)
     exact = small_band.cp / np.linalg.norm(small_band.cp, axis=1)[:, None]
     assert np.degrees(np.arccos(np.clip(np.abs(np.sum(n * exact, axis=1)), 0, 1))).max() < 1.0
     u0 = _image(small_band)
-    a = _run(small_band, u0, "eed")
-    b = _run(small_band, u0, "eed", normals="jacobian")
+    a = _run(small_band, u0, "eed", scheme)
+    b = _run(small_band, u0, "eed", scheme, normals="jacobian")
     assert np.abs(a - b).max() < 0.02 and np.abs(a - u0).max() > 0.05
+
+
+# -- the fast scheme against the reference -------------------------------------------------
+
+
+def _surface_psnr(band, a, b, n=20000):
+    """PSNR (values in [0, 1]) between two band functions at random surface points."""
+    p = band.surface.closest_point(np.random.default_rng(5).uniform(-1.5, 1.5, (n, 3)))[0]
+    return 10 * np.log10(1.0 / np.mean((band.interpolate(a, p) - band.interpolate(b, p)) ** 2))
+
+
+@pytest.mark.parametrize("mode, surface", [("eed", Torus(1.0, 0.4)), ("ced", Sphere())])
+def test_fast_scheme_matches_the_reference(mode, surface):
+    h = 0.05
+    band = Band.build(surface, h, stencil="anisotropic")
+    rng = np.random.default_rng(7)
+    x, y, z = band.cp.T
+    if mode == "eed":
+        clean = (np.sin(9 * x + 4 * z) > 0).astype(np.float32)
+        u0 = band.extend(np.clip(clean + rng.normal(0, 0.3, band.size), 0, 1).astype(np.float32))
+        kw = dict(T=scaled(h, T=7e-4)["T"], **scaled(h, sigma=1.2e-4, rho=3.5e-4))
+    else:  # Starry Night: a smooth image with two thirds of the points replaced by random colours
+        u0 = np.stack([0.5 + 0.4 * np.sin(3 * x + y), 0.5 + 0.4 * np.cos(2 * z), 0.5 + 0.3 * x * y], axis=1)
+        noisy = rng.random(band.size) < 0.67
+        u0[noisy] = rng.random((int(noisy.sum()), 3))
+        u0 = u0.astype(np.float32)
+        kw = dict(T=scaled(h, T=1.1e-4 * (0.0125 / 0.008) ** 2)["T"], b_rel=1e-6,
+                  **scaled(h, sigma=1e-4 * (0.0125 / 0.008) ** 2, rho=5e-4 * (0.0125 / 0.008) ** 2))
+    fast = diffuse(band, u0, mode=mode, scheme="fast", **kw)
+    reference = diffuse(band, u0, mode=mode, scheme="reference", **kw)
+    psnr = _surface_psnr(band, fast, reference)
+    changed = _surface_psnr(band, u0, reference)
+    print(f"\n{mode}: fast vs reference {psnr:.1f} dB; input vs reference {changed:.1f} dB")
+    assert psnr >= 30.0 and changed < 25.0

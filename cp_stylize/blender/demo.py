@@ -69,3 +69,24 @@ def run(out_dir, *, preset="starry_night", quality="STANDARD", image_size="1024"
     for path in paths.values():
         log(f"wrote {path}")
     return paths
+
+
+def save_mesh_arrays(path, texture_name="forest"):
+    """Write the demo's textured Suzanne as plain arrays (``.npz``) for runs without Blender.
+
+    Keys: ``vertices`` (V, 3) in world units, ``faces`` (F, 3), ``uvs`` (F, 3, 2)
+    and ``image`` (H, W, 3), the sRGB texture read through ``uvs`` on every face.
+    """
+    import numpy as np
+
+    from .stylize import prepare
+    from ..presets import StylizeSettings
+
+    obj, _, _ = build_scene(texture_name)
+    job = prepare(obj, StylizeSettings())
+    (image, uvs, faces), = job.colours.textures
+    if not np.all(faces):
+        raise RuntimeError("the demo texture should cover every face")
+    np.savez(path, vertices=job.vertices, faces=job.faces, uvs=uvs, image=image)
+    scene.reset()
+    return path

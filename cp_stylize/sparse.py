@@ -1,0 +1,104 @@
+"""Sparse products on several cores.
+
+SciPy's CSR product runs on one core but releases the GIL, so a matrix split
+into row blocks of equal work multiplies on as many threads as there are
+blocks.  The blocks are views of the matrix's arrays: splitting costs no memory.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["SplitMatrix", "workers"]
+
+#: Below this many stored entries a product is not worth splitting.
+_MIN_SPLIT = 1 << 20
+
+_pool = None
+_pool_lock = threading.Lock()
+_local = threading.local()
+
+
+def workers():
+    """Cores this process may use (at most 8)."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:
+        n = os.cpu_count() or 1
+    return max(1, min(n, 8))
+
+
+def _executor():
+    global _pool
+    with _pool_lock:
+        if _pool is None:
+            _pool = ThreadPoolExecutor(max_workers=workers(), thread_name_prefix="cp_stylize")
+        return _pool
+
+
+def map_parallel(fn, items):
+    """``[fn(x) for x in items]`` on the worker threads (in order).
+
+    Serial for one item, on one core, and inside a worker (a nested parallel
+    map would wait for workers that wait for it).
+    """
+    items = list(items)
+    if len(items) < 2 or workers() < 2 or getattr(_local, "worker", False):
+        return [fn(x) for x in items]
+
+    def run(x):
+        _local.worker = True
+        try:
+            return fn(x)
+        finally:
+            _local.worker = False
+
+    return list(_executor().map(run, items))
+
+
+class SplitMatrix:
+    """A CSR matrix whose products with vectors run on all cores.
+
+    ``M @ v`` for ``v`` of shape (n,) gives the same numbers as the CSR
+    matrix's own product: each row is computed the same way, only on another
+    thread.
+    """
+
+    def __init__(self, matrix, parts=None):
+        matrix = sp.csr_matrix(matrix)
+        self.matrix = matrix
+        self.shape, self.dtype, self.nnz = matrix.shape, matrix.dtype, matrix.nnz
+        parts = workers() if parts is None else int(parts)
+        if parts < 2 or matrix.nnz < _MIN_SPLIT:
+            self.bounds = [(0, matrix.shape[0])]
+            self.blocks = [matrix]
+            return
+        indptr = matrix.indptr
+        cuts = np.searchsorted(indptr, np.linspace(0, matrix.nnz, parts + 1)[1:-1])
+        edges = [0, *sorted(set(int(c) for c in cuts)), matrix.shape[0]]
+        self.bounds = [(s, e) for s, e in zip(edges[:-1], edges[1:]) if e > s]
+        self.blocks = []
+        for s, e in self.bounds:
+            a, b = indptr[s], indptr[e]
+            block = sp.csr_matrix((matrix.data[a:b], matrix.indices[a:b], indptr[s:e + 1] - a),
+                                  shape=(e - s, matrix.shape[1]), copy=False)
+            self.blocks.append(block)
+
+    def __matmul__(self, v):
+        if v.ndim != 1:
+            raise ValueError("SplitMatrix multiplies one vector at a time")
+        if len(self.blocks) == 1:
+            return self.matrix @ v
+        out = np.empty(self.shape[0], dtype=np.result_type(self.dtype, v.dtype))
+
+        def part(k):
+            s, e = self.bounds[k]
+            out[s:e] = self.blocks[k] @ v
+
+        map_parallel(part, range(len(self.blocks)))
+        return out
