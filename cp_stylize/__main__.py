@@ -17,13 +17,13 @@ def _demo(args):
 def _paper(args):
     from . import paper
 
-    paper.run(args.out, h=args.h)
+    paper.run(args.out, h=args.h, scheme=args.scheme)
 
 
 def _bench(args):
     from . import bench
 
-    bench.run(quick=args.quick)
+    bench.run(quick=args.quick, json_path=args.json)
 
 
 def main(argv=None):
@@ -39,9 +39,12 @@ def main(argv=None):
     p = sub.add_parser("paper", help="redraw the paper's experiments (Fig. 4 and a Fig. 5-like CED) as PNGs")
     p.add_argument("--out", default="paper_out", help="output folder (default: paper_out)")
     p.add_argument("--h", type=float, default=0.0125, help="grid spacing (default: the paper's 0.0125)")
+    p.add_argument("--scheme", default="fast", choices=["fast", "reference"],
+                   help="diffusion scheme (default: fast; reference is the paper's Algorithm 1, minutes)")
     p.set_defaults(func=_paper)
-    p = sub.add_parser("bench", help="time the core's steps on reference surfaces")
-    p.add_argument("--quick", action="store_true", help="smaller grids, for a smoke run")
+    p = sub.add_parser("bench", help="time both diffusion schemes on the torus and on Suzanne")
+    p.add_argument("--quick", action="store_true", help="coarse grids, for a smoke run (under a minute)")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON to FILE")
     p.set_defaults(func=_bench)
     args = parser.parse_args(argv)
     args.func(args)

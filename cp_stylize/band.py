@@ -37,6 +37,8 @@ import itertools
 import numpy as np
 import scipy.sparse as sp
 
+from .sparse import SplitMatrix, map_parallel
+
 __all__ = ["Band", "band_width", "estimate_band_size", "STENCILS", "lagrange_weights"]
 
 _AXES = np.eye(3, dtype=np.int64)
@@ -312,7 +314,8 @@ class Band:
         index = self._index.ravel()
         indices = np.empty((len(x), n_w), dtype=index.dtype)
         data = np.empty((len(x), n_w), dtype=dtype)
-        for s in range(0, len(x), _CHUNK):
+
+        def chunk(s):
             e = min(s + _CHUNK, len(x))
             w = [lagrange_weights(g[s:e, a] - base[s:e, a], p).astype(dtype) for a in range(3)]
             # tensor product, last axis fastest: the order of ``nodes``
@@ -322,6 +325,8 @@ class Band:
             corner = np.where(inside, self._flat(rel), 0).astype(index.dtype)
             np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
             indices[s:e][~inside] = -1
+
+        map_parallel(chunk, range(0, len(x), _CHUNK))
         if len(x) and indices.min() < 0:
             rows = np.flatnonzero((indices < 0).any(axis=1))
             raise ValueError(
@@ -354,7 +359,10 @@ class Band:
         ``w`` has shape (N,) or (N, k); float64 stays float64, other types become float32.
         """
         w = self._check_values(w)
-        return apply(self.extension_matrix(w.dtype), w)
+        key = ("split E", w.dtype)
+        if key not in self._matrices:
+            self._matrices[key] = SplitMatrix(self.extension_matrix(w.dtype))
+        return apply(self._matrices[key], w)
 
     # -- finite differences -------------------------------------------------
 

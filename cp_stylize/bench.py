@@ -1,19 +1,52 @@
-"""Speed benchmark: ``python -m cp_stylize bench``.
+"""Speed benchmark: ``python -m cp_stylize bench [--quick] [--json FILE]``.
 
-Times band construction and one explicit closest point step (evolve with L,
-extend with E) on the unit sphere, grey and RGB.  Speed targets are checked
-here, never in the tests.
+Two cases, each run with both diffusion schemes in a process of its own (so
+that its peak memory is its own):
+
+1. ``torus``: edge-enhancing diffusion of noisy grey stripes on a torus with
+   the paper's Fig. 4 parameters, h = 0.0125, 30 steps;
+2. ``suzanne``: the Starry Night preset on Suzanne with two subdivision
+   levels (the demo's textured object, read through Blender's Python module),
+   normalised to length 2, h = 0.008, RGB, a 1024 x 1024 atlas.
+
+For each it reports band points, the seconds of each stage (closest points
+and band with E, the Laplacian L, bake-in, diffusion, bake-out), peak memory,
+and the PSNR of the fast result against the reference one.  The "limit" is
+the time of one closest point extension of the state, ``band.extend`` on
+(N, C), times the number of steps: the work no scheme of the closest point
+method can skip.  A table of single heat steps on the unit sphere follows.
+
+``--quick`` runs coarse grids in well under a minute.  Speed targets are
+checked here, never in the tests.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
 
 from .band import Band
 from .heat import heat
-from .surfaces import Sphere
+from .sparse import workers
+from .surfaces import Sphere, Torus
+
+SCHEMES = ("reference", "fast")
+
+#: Grid spacing, steps and atlas size of each case, full and quick.
+SIZES = {
+    "torus": {"full": {"h": 0.0125, "steps": 30}, "quick": {"h": 0.05, "steps": 30}},
+    "suzanne": {"full": {"h": 0.008, "size": 1024}, "quick": {"h": 0.04, "size": 256}},
+}
+
+#: The paper's Fig. 4 parameters at h = 0.0125 (times scale with h^2 at other spacings).
+TORUS_PARAMS = {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}
 
 
 def _best(fn, repeat):
@@ -23,6 +56,124 @@ def _best(fn, repeat):
         fn()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def _peak_mb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+def _extend_seconds(band, channels):
+    state = np.random.default_rng(0).random((band.size, channels)).astype(np.float32)
+    band.extend(state)  # warm: the split matrix is made once
+    return _best(lambda: band.extend(state), 3)
+
+
+# -- one case and scheme, in a process of its own ------------------------------------------
+
+
+def run_torus(scheme, quick):
+    from .diffusion import PAPER_CFL, diffuse
+
+    size = SIZES["torus"]["quick" if quick else "full"]
+    h, steps = size["h"], size["steps"]
+    times = {}
+    start = time.perf_counter()
+    torus = Torus(1.0, 0.4)
+    band = Band.build(torus, h, stencil="anisotropic")
+    times["band"] = time.perf_counter() - start
+    start = time.perf_counter()
+    band.laplacian_matrix()
+    times["L"] = time.perf_counter() - start
+    start = time.perf_counter()
+    s, t = torus.parameters(band.cp)
+    clean = (np.sin(2 * np.pi * (4 * s + t)) > 0).astype(np.float32)
+    noisy = band.extend(clean + np.random.default_rng(0).normal(0, 0.3, band.size).astype(np.float32))
+    times["bake_in"] = time.perf_counter() - start
+    scale = (h / 0.0125) ** 2
+    start = time.perf_counter()
+    out = diffuse(band, noisy, mode="eed", T=steps * PAPER_CFL * h * h, scheme=scheme,
+                  **{k: v * scale if k != "lambda_rel" else v for k, v in TORUS_PARAMS.items()})
+    times["diffusion"] = time.perf_counter() - start
+    start = time.perf_counter()
+    S, U = np.meshgrid((np.arange(800) + 0.5) / 800, (np.arange(320) + 0.5) / 320)
+    image = band.interpolate(out, torus.point(S.ravel(), U.ravel())).reshape(S.shape)
+    times["bake_out"] = time.perf_counter() - start
+    limit = _extend_seconds(band, 1) if scheme == "fast" else None
+    return band.size, steps, times, np.clip(image, 0, 1), limit
+
+
+def run_suzanne(scheme, quick, data):
+    from .diffusion import PAPER_CFL
+    from .heat import time_steps
+    from .pipeline import ColourInput, stylize
+    from .presets import load_preset
+
+    size = SIZES["suzanne"]["quick" if quick else "full"]
+    arrays = np.load(data)
+    settings = load_preset("starry_night")
+    if size["h"] != settings.spacing:  # the same number of steps, and the same kernels in grid spacings
+        scale = (size["h"] / settings.spacing) ** 2
+        settings = settings.replace(T=settings.T * scale, sigma=settings.sigma * scale, rho=settings.rho * scale)
+    settings = settings.replace(spacing=size["h"], image_size=size["size"])
+    colours = ColourInput(textures=[(arrays["image"], arrays["uvs"], np.ones(len(arrays["faces"]), bool))])
+    limit = {}
+
+    def on_band(band):
+        if scheme == "fast":
+            limit["extend"] = _extend_seconds(band, 3)
+
+    result = stylize(arrays["vertices"], arrays["faces"], colours, settings, uvs=arrays["uvs"],
+                     scheme=scheme, on_band=on_band)
+    steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing**2)
+    covered = result.image.reshape(-1, result.image.shape[-1])[result.atlas.texels]
+    return result.band_size, steps, dict(result.timings), covered, limit.get("extend")
+
+
+def worker(case, scheme, quick, data, out):
+    """Run one case with one scheme; print its figures as JSON and save its image to ``out``."""
+    if case == "torus":
+        points, steps, times, image, extend = run_torus(scheme, quick)
+    else:
+        points, steps, times, image, extend = run_suzanne(scheme, quick, data)
+    np.save(out, image.astype(np.float32))
+    print(json.dumps({"case": case, "scheme": scheme, "points": int(points), "steps": int(steps),
+                      "seconds": times, "peak_mb": _peak_mb(), "extend_seconds": extend}))
+
+
+# -- the driver ---------------------------------------------------------------------------
+
+
+def _suzanne_arrays(folder, log):
+    path = os.path.join(folder, "suzanne.npz")
+    code = f"from cp_stylize.blender.demo import save_mesh_arrays; save_mesh_arrays({path!r})"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=_root())
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+        log(f"suzanne: skipped, Blender's Python module could not make the mesh ({last})")
+        return None
+    return path
+
+
+def _root():
+    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _run_worker(case, scheme, quick, data, out):
+    cmd = [sys.executable, "-m", "cp_stylize.bench", "--worker", case, scheme, out]
+    if quick:
+        cmd.append("--quick")
+    if data:
+        cmd += ["--data", data]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=_root())
+    if done.returncode != 0:
+        raise RuntimeError(f"the {case} {scheme} run failed:\n{done.stderr}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def psnr(a, b):
+    """PSNR in dB of ``a`` against ``b``, values in [0, 1]."""
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0 else 10.0 * np.log10(1.0 / mse)
 
 
 def heat_steps(spacings=(0.05, 0.025), steps=20, repeat=3, log=print):
@@ -43,7 +194,70 @@ def heat_steps(spacings=(0.05, 0.025), steps=20, repeat=3, log=print):
     return rows
 
 
-def run(quick=False, log=print):
-    log("closest point heat step on the unit sphere (tricubic E, 7-point L, float32)")
-    heat_steps((0.1, 0.05) if quick else (0.05, 0.025), steps=5 if quick else 20,
-               repeat=1 if quick else 3, log=log)
+def run(quick=False, json_path=None, cases=("torus", "suzanne"), log=print):
+    """Run the benchmark; returns its figures (also written to ``json_path`` if given)."""
+    report = {"cores": workers(), "quick": bool(quick), "runs": [], "cases": {}}
+    log(f"cp_stylize bench{' --quick' if quick else ''}: {workers()} core(s)")
+    with tempfile.TemporaryDirectory() as folder:
+        data = _suzanne_arrays(folder, log) if "suzanne" in cases else None
+        for case in cases:
+            if case == "suzanne" and data is None:
+                continue
+            images = {}
+            for scheme in SCHEMES:
+                out = os.path.join(folder, f"{case}_{scheme}.npy")
+                figures = _run_worker(case, scheme, quick, data, out)
+                figures["seconds"]["total"] = sum(figures["seconds"].values())
+                images[scheme] = np.load(out)
+                report["runs"].append(figures)
+            fast, ref = (next(r for r in report["runs"] if r["case"] == case and r["scheme"] == s)
+                         for s in ("fast", "reference"))
+            report["cases"][case] = {
+                "points": fast["points"], "steps": fast["steps"],
+                "psnr_fast_vs_reference": psnr(images["fast"], images["reference"]),
+                "diffusion_speedup": ref["seconds"]["diffusion"] / fast["seconds"]["diffusion"],
+                "limit_seconds": fast["extend_seconds"] * fast["steps"],
+                "fast_over_limit": fast["seconds"]["diffusion"] / (fast["extend_seconds"] * fast["steps"]),
+            }
+    _table(report, log)
+    log("\nclosest point heat step on the unit sphere (tricubic E, 7-point L, float32)")
+    report["heat_steps"] = [dict(zip(("h", "points", "build_s", "step_s_grey", "step_s_rgb"), row))
+                            for row in heat_steps((0.1, 0.05) if quick else (0.05, 0.025),
+                                                  steps=5 if quick else 20, repeat=1 if quick else 3, log=log)]
+    if json_path:
+        with open(json_path, "w") as f:
+            json.dump(report, f, indent=2)
+        log(f"\nwrote {json_path}")
+    return report
+
+
+def _table(report, log):
+    stages = ("band", "L", "bake_in", "diffusion", "bake_out", "total")
+    head = (f"{'case':<8} {'scheme':<9} {'points':>9} " + " ".join(f"{s + ' s':>11}" for s in stages)
+            + f" {'peak MB':>8}")
+    log("\n" + head)
+    for r in report["runs"]:
+        cells = " ".join(f"{r['seconds'].get(s, 0.0):11.2f}" if s in r["seconds"] else f"{'-':>11}"
+                         for s in stages)
+        log(f"{r['case']:<8} {r['scheme']:<9} {r['points']:9,d} {cells} {r['peak_mb']:8.0f}")
+    for case, c in report["cases"].items():
+        log(f"\n{case}: {c['points']:,} band points, {c['steps']} steps")
+        log(f"  diffusion, fast vs reference: {c['diffusion_speedup']:.1f}x faster, "
+            f"PSNR {c['psnr_fast_vs_reference']:.1f} dB")
+        log(f"  limit: one band.extend of the state x {c['steps']} steps = {c['limit_seconds']:.2f} s; "
+            f"fast diffusion = {c['fast_over_limit']:.1f} x limit")
+
+
+def main(argv=None):
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m cp_stylize.bench")
+    parser.add_argument("--worker", nargs=3, metavar=("CASE", "SCHEME", "OUT"))
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--data")
+    args = parser.parse_args(argv)
+    worker(*args.worker[:2], args.quick, args.data, args.worker[2])
+
+
+if __name__ == "__main__":
+    main()

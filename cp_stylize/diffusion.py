@@ -19,7 +19,7 @@ import numpy as np
 
 from .heat import heat_rows, time_steps
 from .smoothing import GaussianSmoother, GridGaussian, taper
-from .sparse import SplitMatrix
+from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gradient_matrices
 from .structure import eigen_2x2, outer_products, reduce_to_tangent, structure_tensor
 from .tangent import tangent_basis
@@ -49,6 +49,8 @@ PAPER_CFL = 0.15
 LAG = 0.02
 
 _TINY = 1e-30
+
+_COMPONENT = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
 
 
 def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, lambda_rel=None,
@@ -338,34 +340,45 @@ class _FastFlow:
 
     def __init__(self, band, dtype, mode, params, normals):
         self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
+        self.normals = normals
         self.E = SplitMatrix(band.extension_matrix(dtype))
-        self.laplacian = SplitMatrix(band.laplacian_matrix(dtype))
+        self.laplacian = SplitMatrix(band.laplacian_matrix(dtype)) if mode in ("gaussian", "beltrami") else None
         self.scale = 0.0
         self.stable_step = np.inf
         self._initial = None
         if mode == "gaussian":
             self.stable_step = 1.9 * band.h ** 2 / 12.0  # Gershgorin bound of the 7-point Laplacian
             return
-        self.divergence = divergence = DivergenceOperator(band, dtype)
-        self._A = divergence.template()
+        # the parts are independent: build them side by side on the worker threads
+        parts = [self._build_presmooth, self._build_divergence]
+        if mode in ("eed", "ced"):
+            parts += [self._build_postsmooth, self._build_tangents]
+        map_parallel(lambda build: build(), parts)
+
+    def _build_divergence(self):
+        self.divergence = DivergenceOperator(self.band, self.dtype)
+        self._A = self.divergence.template()
         self.A = SplitMatrix(self._A)
         # gradients wherever the band has the points: around the surface and at every point E reads
-        self.gradients = [SplitMatrix(D) for D in gradient_matrices(band, dtype, rows="all")]
-        sigma = params["sigma"]
+        self.gradients = [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")]
+
+    def _build_presmooth(self):
+        sigma, band = self.params["sigma"], self.band
         self.presmooth = None
         if sigma > 0:
-            self.presmooth = GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=dtype)
-        if mode in ("eed", "ced"):
-            Q = tangent_basis(band, normals)
-            self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=dtype)  # (2, 3, N)
-            self.P = _projector(Q).astype(dtype)
-            self.forms = _tangent_forms(Q).astype(dtype)
-            # the tensor from a shell of three spacings about the surface; a rho narrower than
-            # a grid spacing would not reach the band's rim, and E extends the raw tensor instead
-            rho = params["rho"]
-            self.postsmooth = None
-            if np.sqrt(2.0 * rho) >= band.h:
-                self.postsmooth = GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=dtype)
+            self.presmooth = GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype)
+
+    def _build_tangents(self):
+        Q = tangent_basis(self.band, self.normals)
+        self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.dtype)  # (2, 3, N): q0, q1 by axis
+
+    def _build_postsmooth(self):
+        # the tensor from a shell of three spacings about the surface; a rho narrower than a
+        # grid spacing would not reach the band's rim, and E extends the raw tensor instead
+        rho, band = self.params["rho"], self.band
+        self.postsmooth = None
+        if np.sqrt(2.0 * rho) >= band.h:
+            self.postsmooth = GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype)
 
     def _smoothed(self, rows):
         return rows if self.presmooth is None else self.presmooth(rows)
@@ -386,7 +399,14 @@ class _FastFlow:
             J = self.postsmooth(J)
         else:
             J = np.stack([self.E @ j for j in J])
-        a, b, d = (sum(f[k] * J[k] for k in range(6)) for f in self.forms)
+        # the tangent tensor Q^T J Q (eq. (25)) from J's six rows
+        full = [[J[_COMPONENT[min(a, b), max(a, b)]] for b in range(3)] for a in range(3)]
+        q0, q1 = self.Q
+        Jq0 = [full[a][0] * q0[0] + full[a][1] * q0[1] + full[a][2] * q0[2] for a in range(3)]
+        Jq1 = [full[a][0] * q1[0] + full[a][1] * q1[1] + full[a][2] * q1[2] for a in range(3)]
+        a = q0[0] * Jq0[0] + q0[1] * Jq0[1] + q0[2] * Jq0[2]
+        b = q1[0] * Jq0[0] + q1[1] * Jq0[1] + q1[2] * Jq0[2]
+        d = q1[0] * Jq1[0] + q1[1] * Jq1[1] + q1[2] * Jq1[2]
         mu1, mu2, c1, s1 = eigen_2x2(a, b, d)
         return np.maximum(mu1 - mu2, 0), c1, s1
 
@@ -424,10 +444,14 @@ class _FastFlow:
             else:
                 c, c1, s1 = self._coherence(rows)
             k1, k2 = _diffusivities(self.mode, c, p, self.scale)
-            w = self.Q[0] * c1 + self.Q[1] * s1
+            q0, q1 = self.Q
+            w = q0 * c1 + q1 * s1
             G = np.empty((6, self.band.size), dtype=self.dtype)
             for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-                np.multiply(k2, self.P[k], out=G[k])
+                # k2 Q Q^T + (k1 - k2) w w^T: the tangent projector Q Q^T = q0 q0^T + q1 q1^T
+                np.multiply(q0[a], q0[b], out=G[k])
+                G[k] += q1[a] * q1[b]
+                G[k] *= k2
                 G[k] += (k1 - k2) * w[a] * w[b]
             return self._fill(G), None
         lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
@@ -438,13 +462,3 @@ class _FastFlow:
         trace, second = self._invariants(rows if p["sigma"] == 0 else self._smoothed(rows))
         inv = (0.5 / (1.0 + trace / lam2 + second / lam2 / lam2)).astype(self.dtype)
         return self._fill(_isotropic(inv)), inv
-
-
-def _tangent_forms(Q):
-    """Coefficients (3, 6, N) that give ``a, b, d`` of ``Q^T J Q`` from J's six rows."""
-    q0, q1 = Q[:, :, 0], Q[:, :, 1]
-    forms = np.empty((3, 6, len(Q)))
-    for r, (x, y) in enumerate(((q0, q0), (q0, q1), (q1, q1))):
-        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-            forms[r, k] = x[:, a] * y[:, b] if a == b else x[:, a] * y[:, b] + x[:, b] * y[:, a]
-    return forms

@@ -44,6 +44,8 @@ import itertools
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .sparse import map_parallel, workers
+
 __all__ = ["TriangleMesh", "parametric_mesh"]
 
 #: Points handled at once, about (band chunks, query chunks, normals).
@@ -615,7 +617,9 @@ class TriangleMesh:
         per_block = np.bincount(pair_block, minlength=len(blocks))
         pair_start = np.r_[0, np.cumsum(per_block)]
         chunks = _split_counts(np.maximum(8 * per_block, len(local)), 4 * _CHUNK)
-        for s, e in zip(chunks[:-1], chunks[1:]):
+
+        def search(bounds):
+            s, e = bounds
             b = blocks[s:e]
             nb = len(b)
             p0, p1 = pair_start[s], pair_start[e]
@@ -635,11 +639,19 @@ class TriangleMesh:
             face, _ = self._descend(centres, deltas, parents, cells, tris, width=width)
             keep = np.flatnonzero(face >= 0)
             if len(keep) == 0:
-                continue
+                return None
             v, w, _, d2 = self._closest(centres[2][:, keep], face[keep])
             result = self._result(face[keep], v, w, d2)
             inside = result[1] <= width
-            yield (ijk[keep][inside],) + tuple(a[inside] for a in result)
+            return (ijk[keep][inside],) + tuple(a[inside] for a in result)
+
+        # the chunks are independent: two at a time on the worker threads
+        spans = list(zip(chunks[:-1], chunks[1:]))
+        step = 2 * workers()
+        for k in range(0, len(spans), step):
+            for found in map_parallel(search, spans[k:k + step]):
+                if found is not None:
+                    yield found
 
     def band_candidates(self, h, width):
         """Integer grid coordinates (K, 3) within ``width`` of the mesh, in chunks.

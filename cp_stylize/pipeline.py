@@ -57,6 +57,7 @@ class StylizeResult:
     band_size: int
     spacing: float           # grid spacing in the mesh's own units
     seconds: float
+    timings: dict = dataclasses.field(default_factory=dict)  # seconds by stage: band, bake_in, diffusion, bake_out
 
 
 def sample_colours(band, colours, channels=3):
@@ -74,7 +75,7 @@ def sample_colours(band, colours, channels=3):
     return values
 
 
-def stylize(vertices, faces, colours, settings, *, uvs=None, progress=None, log=None):
+def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", progress=None, log=None, on_band=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
 
     Parameters
@@ -87,10 +88,22 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, progress=None, log=
     uvs : ndarray (F, 3, 2), optional
         The mesh's own per-corner UVs for the output atlas; used where usable,
         otherwise a new atlas is made (see :func:`cp_stylize.atlas.uv_atlas`).
+    scheme : {"fast", "reference"}
+        The diffusion's time stepping (see :func:`cp_stylize.diffuse`).
     progress : callable, optional
         ``progress(fraction)``; an exception it raises stops the run.
+    on_band : callable, optional
+        Called with the band once it is built (used by the benchmark).
     """
     start = time.perf_counter()
+    timings = {}
+    clock = [start]
+
+    def lap(name):
+        now = time.perf_counter()
+        timings[name] = now - clock[0]
+        clock[0] = now
+
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -107,47 +120,52 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, progress=None, log=
     report(0.0)
     stencil = "laplacian" if settings.mode == "gaussian" else "anisotropic"
     band = Band.build(mesh, settings.spacing, stencil=stencil)
+    lap("band")
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
+    if on_band is not None:
+        on_band(band)
+        clock[0] = time.perf_counter()
     report(0.1)
     values = sample_colours(band, colours)
     if settings.noise_fraction > 0:
         values = inject_noise(values, settings.noise_fraction, settings.palette,
                               weights=settings.palette_weights or None, seed=settings.seed)
+    lap("bake_in")
     report(0.15)
-    result = diffuse(band, values, **settings.diffusion_parameters(),
+    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
                      progress=lambda f: report(0.15 + 0.75 * f))
+    lap("diffusion")
     atlas = uv_atlas(mesh, settings.image_size, uvs)
     report(0.95)
     image = bake_to_atlas(band, result, atlas, margin=settings.margin)
+    lap("bake_out")
     report(1.0)
     return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
-                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start)
+                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings)
 
 
-#: Seconds per band point and sparse product (E and L together), measured with
-#: ``python -m cp_stylize bench`` on a 2-core machine; a rough guide only.
-SECONDS_PER_POINT_PRODUCT = 9e-8
+#: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` (fast scheme):
+#: seconds per band point to build the band and the scheme's operators and to bake
+#: in and out ...
+SECONDS_SETUP_PER_POINT = {"gaussian": 6e-6, "other": 1e-5}
+#: ... per band point and colour channel for one step (an extension and a stencil product) ...
+SECONDS_STEP_PER_POINT = 4e-8
+#: ... and per band point for one rebuild of the diffusion tensor (about every other step).
+SECONDS_TENSOR_PER_POINT = 3e-7
 
-#: Memory a band point takes during a run, in bytes: matrices (E: 64 weights,
-#: the 19-point divergence operator, L, gradients), geometry, tensor fields and
-#: work arrays of a colour run.
+#: Peak memory of a colour run, in bytes a band point: matrices (E: 64 weights, the
+#: 19-point stencil, L, gradients, smoothing passes), geometry, tensor fields, work arrays.
 BYTES_PER_BAND_POINT = 1600
 
 
 def estimate_run(n_points, settings, channels=3):
-    """Rough ``(seconds, bytes)`` of a run on ``n_points`` band points with ``settings``."""
-    from .diffusion import DEFAULTS, PAPER_CFL
+    """Rough ``(seconds, bytes)`` of a run (band, bake-in, fast diffusion, bake-out) on ``n_points``."""
+    from .diffusion import PAPER_CFL
     from .heat import time_steps
 
-    h2 = settings.spacing ** 2
-    steps, _ = time_steps(settings.T, PAPER_CFL * h2)
-    params = {**DEFAULTS[settings.mode], **{k: v for k, v in settings.diffusion_parameters().items()}}
-    products = channels
+    steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing ** 2)
+    per_point = SECONDS_SETUP_PER_POINT["gaussian" if settings.mode == "gaussian" else "other"]
+    per_point += steps * channels * SECONDS_STEP_PER_POINT
     if settings.mode != "gaussian":
-        sigma_steps, _ = time_steps(params.get("sigma", 0.0), PAPER_CFL * h2)
-        products += channels * sigma_steps + 6
-    if settings.mode in ("eed", "ced"):
-        rho_steps, _ = time_steps(params.get("rho", 0.0), PAPER_CFL * h2)
-        products += 6 * rho_steps
-    seconds = SECONDS_PER_POINT_PRODUCT * n_points * steps * products
-    return seconds, n_points * BYTES_PER_BAND_POINT
+        per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
+    return n_points * per_point, n_points * BYTES_PER_BAND_POINT

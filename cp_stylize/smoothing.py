@@ -1,23 +1,33 @@
-"""Fast surface smoothing on the band: a normalised, separable Gaussian.
+"""Fast surface smoothing on the band: normalised 3-D Gaussians.
 
 Heat flow to time ``t`` on a surface blurs with a Gaussian of standard
 deviation ``sqrt(2 t)``.  For a closest point extension ``v(x) = u(cp(x))``,
 which is constant along the surface's normals, a 3-D Gaussian of that width
 restricted to the surface is the surface Gaussian up to terms of relative size
-``(sqrt(2 t) kappa)^2`` (kappa a principal curvature).  The 3-D Gaussian is
-separable: three sparse passes along the grid axes, each reading only the band
-points on its line.  A normalised convolution,
+``(sqrt(2 t) kappa)^2`` (kappa a principal curvature).  The band is a thin
+shell, so the Gaussian is taken as a normalised convolution,
 
-.. math:: S[v] = \\frac{G * (m v)}{G * m},
+.. math:: S[v] = \frac{G * (m v)}{G * m},
 
-with ``m`` the mask of points that carry data, makes the missing points
-outside the band (and outside the mask) harmless: it is an average of the data
-that is there, so constants stay constant and the range is kept.
+with ``m`` the weights of the points that carry data: the points outside the
+band (or without data) are left out, constants stay constant and no value
+leaves the range of the data.  Weights that fall smoothly to zero away from
+the surface (:func:`taper`) weigh every direction along the surface alike; a
+cut-off mask follows the grid's staircase and pulls the averages sideways.
 
-One pass costs about ``2 ceil(3 sqrt(2 t) / h) + 1`` products a point instead
-of the ``t / (0.1 h^2)`` extension products of explicit heat steps.  It is
-used for the structure tensor's smoothing in the fast scheme; the surface heat
-flow itself stays the closest point iteration (:mod:`cp_stylize.heat`).
+Two implementations:
+
+- :class:`GaussianSmoother`: three sparse passes along the grid axes inside
+  the band, ``2 ceil(3 sqrt(2 t) / h) + 1`` products a point and pass.  Cheap
+  for narrow kernels; a pass only sees the band points on its line, which
+  skews wide kernels.
+- :class:`GridGaussian`: the data summed into a box grid up to four times
+  coarser, blurred there, read back by trilinear interpolation.  Every path of
+  the 3-D kernel is there, and the coarse grid makes wide kernels cheap.
+
+The fast scheme of :func:`cp_stylize.diffuse` smooths the image (``sigma``)
+with the first and the structure tensor (``rho``) with the second, instead of
+``t / (0.15 h^2)`` closest point heat steps each.
 """
 
 from __future__ import annotations
@@ -53,12 +63,13 @@ class GaussianSmoother:
     band : Band
     t : float
         Heat time (squared surface units); the Gaussian's deviation is ``sqrt(2 t)``.
-    mask : ndarray of bool (N,), optional
-        Points that carry data (default all).  Values elsewhere are ignored.
+    weights : ndarray (N,), optional
+        Non-negative weight of each point's data (default all 1); points of
+        weight 0 carry no data.
     dtype : float32 or float64
 
     Calling the smoother on rows (k, N) returns the smoothed rows.  Points that
-    no masked point reaches get 0; :attr:`covered` marks the others.
+    no weighted point reaches get 0; :attr:`covered` marks the others.
     """
 
     def __init__(self, band, t, weights=None, dtype=np.float32):
@@ -105,11 +116,12 @@ def _axis_matrix(band, axis, offsets, taps, dtype, source_weights):
     step = np.zeros((len(offsets), 3), np.int64)
     step[:, axis] = offsets
     nbr = band.neighbors(step)
-    keep = nbr >= 0
-    data = np.broadcast_to(taps.astype(dtype), nbr.shape)
+    weights = np.ones(n + 1, dtype)
     if source_weights is not None:
-        data = data * source_weights[np.where(keep, nbr, 0)]
-        keep &= data != 0
+        weights[:n] = source_weights
+    weights[n] = 0  # index -1 (no point) reads the appended zero
+    data = taps.astype(dtype)[None, :] * weights[nbr]
+    keep = data != 0
     indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))])
     return sp.csr_matrix((data[keep], nbr[keep], indptr), shape=(n, n))
 
@@ -153,11 +165,11 @@ def _coarse_std(std, f):
 class GridGaussian:
     """Approximates the surface heat flow to time ``t`` with a 3-D Gaussian on a coarser box grid.
 
-    The masked band values are summed into the cells of a box grid of
+    The weighted band values are summed into the cells of a box grid of
     spacing ``factor * h`` that covers the band, blurred there with a
     separable Gaussian (:func:`scipy.ndimage.gaussian_filter`, several rows
     at once on all cores), and read back at the band points by trilinear
-    interpolation.  Numerator and mask weight go through the same steps
+    interpolation.  Numerator and weights go through the same steps
     (normalised convolution), so constants are kept exactly and no value
     leaves the range of the data.
 
@@ -194,18 +206,19 @@ class GridGaussian:
         # read-back: trilinear weights at the band points; cell c has its centre at (c + 1/2) f - 1/2
         g = (ijk + 0.5) / f - 0.5 + radius
         base = np.floor(g).astype(np.int64)
-        frac = g - base
-        cols, vals = [], []
-        for corner in itertools.product((0, 1), repeat=3):
-            c = base + corner
-            cols.append((c[:, 0] * self.shape[1] + c[:, 1]) * self.shape[2] + c[:, 2])
-            w = np.ones(band.size)
+        frac = (g - base).astype(self.dtype)
+        corner0 = (base[:, 0] * self.shape[1] + base[:, 1]) * self.shape[2] + base[:, 2]
+        del g, base
+        cols = np.empty((band.size, 8), np.int32 if n_cells < 2**31 else np.int64)
+        vals = np.empty((band.size, 8), self.dtype)
+        for k, corner in enumerate(itertools.product((0, 1), repeat=3)):
+            cols[:, k] = corner0 + (corner[0] * self.shape[1] + corner[1]) * self.shape[2] + corner[2]
+            vals[:, k] = 1
             for a in range(3):
-                w *= frac[:, a] if corner[a] else 1.0 - frac[:, a]
-            vals.append(w)
+                vals[:, k] *= frac[:, a] if corner[a] else 1 - frac[:, a]
         self.prolong = SplitMatrix(sp.csr_matrix(
-            (np.stack(vals, 1).astype(self.dtype).ravel(), np.stack(cols, 1).astype(np.int32).ravel(),
-             np.arange(0, 8 * band.size + 1, 8)), shape=(band.size, n_cells)))
+            (vals.ravel(), cols.ravel(), np.arange(0, 8 * band.size + 1, 8, dtype=cols.dtype)),
+            shape=(band.size, n_cells)))
         weight = self._blur(np.ones((1, band.size), self.dtype))[0]
         self.covered = weight > 1e-6 * float(weight.max())
         self.scale = np.where(self.covered, 1.0 / np.where(self.covered, weight, 1.0), 0.0).astype(self.dtype)

@@ -85,8 +85,12 @@ class SplitMatrix:
         self.blocks = []
         for s, e in self.bounds:
             a, b = indptr[s], indptr[e]
-            block = sp.csr_matrix((matrix.data[a:b], matrix.indices[a:b], indptr[s:e + 1] - a),
-                                  shape=(e - s, matrix.shape[1]), copy=False)
+            # set the arrays after construction: SciPy's constructor copies a view
+            # of less than half its base array ("pruning"), which would double E
+            block = sp.csr_matrix((e - s, matrix.shape[1]), dtype=matrix.dtype)
+            block.indptr = (indptr[s:e + 1] - a).astype(indptr.dtype)
+            block.indices = matrix.indices[a:b]
+            block.data = matrix.data[a:b]
             self.blocks.append(block)
 
     def __matmul__(self, v):

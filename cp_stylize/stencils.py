@@ -78,10 +78,12 @@ class DivergenceOperator:
         offsets += [s * _AXIS[a] for a in range(3) for s in (1, -1)]
         offsets += [sa * _AXIS[a] + sb * _AXIS[b] for a, b, sa, sb in diagonals]
         self._diagonals = diagonals
-        self.columns = band.neighbors(np.array(offsets))[self.rows]
-        if np.any(self.columns < 0):
+        columns = band.neighbors(np.array(offsets))[self.rows]
+        if np.any(columns < 0):
             raise RuntimeError("an inner band point lacks part of its 19-point stencil")
-        self._template = _rows_csr(band, self.rows, self.columns, np.zeros(self.columns.shape), 19, self.dtype)
+        self._template = _rows_csr(band, self.rows, columns, np.zeros(columns.shape), 19, self.dtype)
+        #: band indices (n_inner, 19) of each inner point's stencil: a view of the matrix's own
+        self.columns = self._template.indices.reshape(len(self.rows), 19)
         self._columns_t = None
 
     def coefficients(self, G):
@@ -141,10 +143,9 @@ class DivergenceOperator:
         return data
 
     def template(self):
-        """A(G) with all weights zero: its ``data`` can be filled in place."""
-        A = self._template.copy()
-        A.data = np.zeros_like(A.data)
-        return A
+        """A(G) with all weights zero, to fill in place; it shares its index arrays with the operator."""
+        T = self._template
+        return sp.csr_matrix((np.zeros_like(T.data), T.indices, T.indptr), shape=T.shape, copy=False)
 
     @staticmethod
     def stable_step(A):

@@ -28,11 +28,3 @@ def test_public_api():
 
     for name in ("Sphere", "Torus", "Band", "heat", "band_width"):
         assert name in cp_stylize.__all__ and hasattr(cp_stylize, name)
-
-
-def test_bench_runs_quick():
-    lines = []
-    from cp_stylize import bench
-
-    bench.run(quick=True, log=lines.append)
-    assert len(lines) == 4 and "band points" in lines[1]

@@ -44,7 +44,7 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
         addon = sys.modules["bl_ext.user_default.cp_stylize"]
         h, n, nbytes, seconds = addon.cp_stylize.blender.operators.estimate(
             bpy.context.active_object, bpy.context.scene.cp_stylize.to_settings())
-        assert abs(h - 0.02 * 4.0 / 2) < 1e-9, h
+        assert abs(h - 0.016 * 4.0 / 2) < 1e-9, h
         print("ESTIMATE", h, n)
     """)
     home = tmp_path / "home"
@@ -52,11 +52,11 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
     proc = fresh_blender(code, env={"HOME": str(home), "PYTHONPATH": ""})
     line = next(l for l in proc.stdout.splitlines() if l.startswith("ESTIMATE"))
     n = int(line.split()[2])
-    # a sphere of radius 2 (area 16 pi, longest side 4) at the preview spacing 0.02 * 4 / 2:
+    # a sphere of radius 2 (area 16 pi, longest side 4) at the preview spacing 0.016 * 4 / 2:
     # the band holds about 2 w A / h^3 points
     from cp_stylize import band_width
 
-    h = 0.04
+    h = 0.032
     expected = 2 * band_width(h, stencil="anisotropic") * 1.01 * 16 * 3.14159 / h**3
     assert 0.95 * expected < n < 1.0 * expected
     assert os.path.isdir(home / ".config" / "blender")

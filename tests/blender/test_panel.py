@@ -82,7 +82,7 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
     monkeypatch.setattr(operators, "user_preset_dir", lambda create=False: str(tmp_path))
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
     assert registered.mode == "ced" and registered.b_rel == pytest.approx(1e-6) and len(registered.palette) == 12
-    assert registered.quality == "HIGH"
+    assert registered.quality == "STANDARD"  # the preset's spacing, 0.008
     registered.time = 3e-4
     assert bpy.ops.cp_stylize.preset_add(name="My Look") == {"FINISHED"}
     assert (tmp_path / "my_look.toml").exists() and "my_look" in operators.all_presets()

@@ -105,7 +105,7 @@ def test_starry_night_on_an_image_textured_sphere(addon):
     palette = palette[palette[:, 2] > palette[:, 0]]  # its blues
     near = lambda img: np.min(np.linalg.norm(img[..., None, :3] - palette[None, None], axis=-1), axis=-1) < 0.12
     covered = out[..., :3].max(axis=2) > 0.0
-    assert near(out)[covered].mean() > 0.1 and near(before_pixels).mean() < 0.01
+    assert near(out)[covered].mean() > 0.05 and near(before_pixels).mean() < 0.01
     # the strokes: the same noise without the diffusion is far less coherent
     bpy.ops.cp_stylize.preset_load(name="starry_night")
     addon.quality, addon.time = "PREVIEW", 1e-9
