@@ -317,7 +317,7 @@ class Band:
 
         def chunk(s):
             e = min(s + _CHUNK, len(x))
-            w = [lagrange_weights(g[s:e, a] - base[s:e, a], p).astype(dtype) for a in range(3)]
+            w = [lagrange_weights(g[s:e, a] - base[s:e, a], p) for a in range(3)]
             # tensor product, last axis fastest: the order of ``nodes``
             data[s:e] = (w[0][:, :, None, None] * w[1][:, None, :, None] * w[2][:, None, None, :]).reshape(e - s, n_w)
             rel = base[s:e] - self._lo

@@ -188,21 +188,8 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
         for step in range(n_steps):
             report = None if progress is None else (lambda f, s=step: progress((s + 0.9 * f) / n_steps))
             A, extra = flow.operator(rows, report)
-            sub = max(1, int(np.ceil(tau / DivergenceOperator.stable_step(A) - 1e-9)))
-            dt = rows.dtype.type(tau / sub)
-            for _ in range(sub):
-                for j in range(len(rows)):
-                    v = rows[j]
-                    change = A @ v
-                    if extra is not None:
-                        change += extra * (flow.laplacian @ v)
-                    rows[j] = E @ (v + dt * change)
-                if clamp:
-                    np.clip(rows, lo, hi, out=rows)
-            if not np.all(np.isfinite(rows)):
-                raise FloatingPointError(f"diffusion produced non-finite values at step {step + 1}")
-            if progress is not None:
-                progress((step + 1) / n_steps)
+            _step(rows, A, extra, flow.laplacian, E, tau, DivergenceOperator.stable_step(A), clamp and (lo, hi))
+            _check(rows, step, n_steps, progress)
     elif n_steps:
         flow = _FastFlow(band, rows.dtype, mode, params, normals)
         flow.normalise(rows)
@@ -213,23 +200,8 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
             if built_from is None or _rms_change(rows, built_from, inner, span) > lag:
                 A, extra = flow.operator(rows)
                 built_from = rows[:, inner].copy() if lag > 0 else None
-            sub = max(1, int(np.ceil(tau / flow.stable_step - 1e-9)))
-            dt = rows.dtype.type(tau / sub)
-            for _ in range(sub):
-                for j in range(len(rows)):
-                    v = rows[j]
-                    change = A @ v
-                    if extra is not None:
-                        change += extra * (flow.laplacian @ v)
-                    change *= dt
-                    change += v
-                    rows[j] = flow.E @ change
-                if clamp:
-                    np.clip(rows, lo, hi, out=rows)
-            if not np.all(np.isfinite(rows)):
-                raise FloatingPointError(f"diffusion produced non-finite values at step {step + 1}")
-            if progress is not None:
-                progress((step + 1) / n_steps)
+            _step(rows, A, extra, flow.laplacian, flow.E, tau, flow.stable_step, clamp and (lo, hi))
+            _check(rows, step, n_steps, progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
 
 
@@ -278,10 +250,7 @@ class _Flow:
             return self.laplacian, None
         p = self.params
         if self.mode in ("eed", "ced"):
-            if self._initial is not None:
-                (c, c1, s1), self._initial = self._initial, None
-            else:
-                c, c1, s1 = self._coherence(rows, progress)
+            c, c1, s1 = _current_coherence(self, rows, progress)
             k1, k2 = _diffusivities(self.mode, c, p, self.scale)
             w = self.Q[:, :, 0] * c1[:, None] + self.Q[:, :, 1] * s1[:, None]
             G = np.stack([k2 * self.P[k] + (k1 - k2) * w[:, a] * w[:, b]
@@ -307,10 +276,42 @@ class _Flow:
         return self.divergence.matrix(_isotropic(inv)), inv.astype(self.dtype)
 
 
+def _step(rows, A, extra, laplacian, E, tau, stable_step, bounds):
+    """One outer step ``v <- E (v + tau (A v + extra L v))`` in place, in equal parts where A needs them."""
+    sub = max(1, int(np.ceil(tau / stable_step - 1e-9)))
+    dt = rows.dtype.type(tau / sub)
+    for _ in range(sub):
+        for j in range(len(rows)):
+            v = rows[j]
+            change = A @ v
+            if extra is not None:
+                change += extra * (laplacian @ v)
+            change *= dt
+            change += v
+            rows[j] = E @ change
+        if bounds:
+            np.clip(rows, *bounds, out=rows)
+
+
+def _check(rows, step, n_steps, progress):
+    if not np.all(np.isfinite(rows)):
+        raise FloatingPointError(f"diffusion produced non-finite values at step {step + 1}")
+    if progress is not None:
+        progress((step + 1) / n_steps)
+
+
 def _rms_change(rows, before, inner, span):
     """Largest root-mean-square change over the channels at the inner points, relative to each range."""
     return max(float(np.sqrt(np.mean((rows[j][inner] - before[j]) ** 2))) / float(span[j])
                for j in range(len(rows)))
+
+
+def _current_coherence(flow, rows, *args):
+    """``(c, c1, s1)``: for the first step the initial data's (computed by ``normalise``), then fresh."""
+    if flow._initial is not None:
+        found, flow._initial = flow._initial, None
+        return found
+    return flow._coherence(rows, *args)
 
 
 def _diffusivities(mode, c, p, scale):
@@ -439,10 +440,7 @@ class _FastFlow:
             return self.laplacian, None
         p = self.params
         if self.mode in ("eed", "ced"):
-            if self._initial is not None:
-                (c, c1, s1), self._initial = self._initial, None
-            else:
-                c, c1, s1 = self._coherence(rows)
+            c, c1, s1 = _current_coherence(self, rows)
             k1, k2 = _diffusivities(self.mode, c, p, self.scale)
             q0, q1 = self.Q
             w = q0 * c1 + q1 * s1
