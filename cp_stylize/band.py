@@ -202,13 +202,13 @@ class Band:
         ----------
         surface : object
             Anything with ``closest_point(x) -> (cp, dist)`` and ``bounds()``,
-            such as :class:`~cp_stylize.Sphere` or :class:`~cp_stylize.Torus`.
-            A surface may offer ``band_candidates(h, width)`` yielding chunks
-            of integer grid coordinates (K, 3) to test, instead of scanning its
-            bounding box, and ``closest_point_on_faces(x) -> (cp, dist, face,
-            bary)`` (triangle meshes), which the band then uses and keeps, or
-            ``band_points(h, width)`` yielding chunks ``(ijk, cp, dist, face,
-            bary)`` of exactly the grid points within ``width``.
+            such as :class:`~cp_stylize.Sphere` or :class:`~cp_stylize.Torus`:
+            the grid points of its bounding box grown by the band width are
+            tested.  A surface may instead offer ``band_points(h, width)``
+            yielding chunks ``(ijk, cp, dist, face, bary)`` of exactly the grid
+            points within ``width`` (triangle meshes do), and
+            ``closest_point_on_faces(x) -> (cp, dist, face, bary)``, whose
+            faces and barycentric coordinates the band then keeps.
         h : float
             Grid spacing, in the surface's units.
         stencil : {"laplacian", "anisotropic"}
@@ -428,11 +428,7 @@ def _flat(rel, shape):
 
 
 def _candidates(surface, h, width):
-    """Integer grid coordinates to test, in chunks."""
-    own = getattr(surface, "band_candidates", None)
-    if own is not None:
-        yield from own(h, width)
-        return
+    """Integer grid coordinates of the surface's grown bounding box, in chunks."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in surface.bounds())
     imin = np.floor((lo - width) / h).astype(np.int64)
     imax = np.ceil((hi + width) / h).astype(np.int64)

@@ -186,7 +186,6 @@ class TriangleMesh:
         self._pack = [np.ascontiguousarray(c) for c in columns.T]
         self._scale = float(np.abs(vertices[self.faces]).max() + longest[keep].max())
         self._tree = None
-        self._memo = None
 
     def __repr__(self):
         skipped = f", skipped_faces={self.skipped_faces}" if self.skipped_faces else ""
@@ -554,9 +553,6 @@ class TriangleMesh:
         is returned.
         """
         x = _as_points(x)
-        memo, self._memo = self._memo, None
-        if memo is not None and memo[0].shape == x.shape and np.array_equal(memo[0], x):
-            return memo[1]
         if len(x) == 0:
             return np.empty((0, 3)), np.empty(0), np.empty(0, dtype=np.int64), np.empty((0, 3))
         kept, v, w, d2 = self._nearest(x)
@@ -645,30 +641,13 @@ class TriangleMesh:
             inside = result[1] <= width
             return (ijk[keep][inside],) + tuple(a[inside] for a in result)
 
-        # the chunks are independent: two at a time on the worker threads
+        # the chunks are independent: a few at a time, side by side on the worker threads
         spans = list(zip(chunks[:-1], chunks[1:]))
         step = 2 * workers()
         for k in range(0, len(spans), step):
             for found in map_parallel(search, spans[k:k + step]):
                 if found is not None:
                     yield found
-
-    def band_candidates(self, h, width):
-        """Integer grid coordinates (K, 3) within ``width`` of the mesh, in chunks.
-
-        The grid points of :meth:`band_points`.  The closest points of the
-        chunk just yielded are kept until the next call of
-        :meth:`closest_point_on_faces`, which returns them without a new
-        search when it is asked for exactly the points ``h * ijk`` (as
-        :meth:`Band.build <cp_stylize.band.Band.build>` does).
-        """
-        h = float(h)
-        try:
-            for ijk, *found in self.band_points(h, width):
-                self._memo = (h * ijk, tuple(found))
-                yield ijk
-        finally:
-            self._memo = None
 
     def _block_pairs(self, h, width):
         """Blocks near the mesh and their candidate triangles.
