@@ -224,15 +224,17 @@ class GridGaussian:
         self.scale = np.where(self.covered, 1.0 / np.where(self.covered, weight, 1.0), 0.0).astype(self.dtype)
 
     def _blur(self, rows):
-        coarse = [self.restrict @ np.ascontiguousarray(r, dtype=self.dtype) for r in rows]
+        out = np.empty((len(rows), self.prolong.shape[0]), dtype=self.dtype)
 
-        def blur(c):
+        def blur(j):  # one row at a time, so that only one box grid a thread is alive
+            c = self.restrict @ np.ascontiguousarray(rows[j], dtype=self.dtype)
             if self.std > 0:
                 c = ndimage.gaussian_filter(c.reshape(self.shape), self.std, truncate=TRUNCATE,
                                             mode="constant").ravel()
-            return self.prolong @ c
+            out[j] = self.prolong @ c
 
-        return np.stack(map_parallel(blur, coarse))
+        map_parallel(blur, range(len(rows)))
+        return out
 
     def __call__(self, rows):
         """Smoothed copies of band values given as rows (k, N)."""
