@@ -10,7 +10,10 @@
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
-and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.
+and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  Two schemes take these
+steps: ``"reference"``, Algorithm 1 as written, and ``"fast"`` (the default),
+which makes G from grid Gaussians, rebuilds it only when the values have
+changed, and runs the sparse products on all cores.
 """
 
 from __future__ import annotations
@@ -148,8 +151,10 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
     closest point extension is the surface Gaussian up to terms of relative
     size ``(sqrt(2 t) kappa)^2``.  It mixes the two sides of a sheet thinner
     than about three deviations, where the heat flow on the band mixes them
-    over about two grid spacings.  Each step's ``E (v + tau A v)`` is the
-    reference's, with A assembled from the same weights.
+    over about two grid spacings.  Perona-Malik extends the gradient's
+    squared length (one E product instead of six), Beltrami the two invariants
+    it needs.  Each step's ``E (v + tau A v)`` is the reference's, with A
+    assembled from the same weights.
 
     Scaling: on a surface scaled by ``s``, use ``h``, ``sqrt`` of every time
     (``T``, ``sigma``, ``rho``, ``tau``) scaled by ``s``, i.e. times times

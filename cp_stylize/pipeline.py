@@ -57,7 +57,7 @@ class StylizeResult:
     band_size: int
     spacing: float           # grid spacing in the mesh's own units
     seconds: float
-    timings: dict = dataclasses.field(default_factory=dict)  # seconds by stage: band, bake_in, diffusion, bake_out
+    timings: dict = dataclasses.field(default_factory=dict)  # seconds: band (band_E of it), bake_in, diffusion, bake_out
 
 
 def sample_colours(band, colours, channels=3):
@@ -121,6 +121,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", prog
     stencil = "laplacian" if settings.mode == "gaussian" else "anisotropic"
     band = Band.build(mesh, settings.spacing, stencil=stencil)
     lap("band")
+    timings["band_E"] = band.timings["E"]  # part of "band"
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
     if on_band is not None:
         on_band(band)
