@@ -149,9 +149,11 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
     (:class:`~cp_stylize.smoothing.GridGaussian`), which also extends the
     tensor off the surface without the six E products.  A 3-D Gaussian of a
     closest point extension is the surface Gaussian up to terms of relative
-    size ``(sqrt(2 t) kappa)^2``.  It mixes the two sides of a sheet thinner
-    than about three deviations, where the heat flow on the band mixes them
-    over about two grid spacings.  Perona-Malik extends the gradient's
+    size ``(sqrt(2 t) kappa)^2``.  Only the structure tensor is smoothed this
+    way: on a sheet thinner than about three deviations, the tensor on one
+    side also sees the edges of the other (the values are never mixed: the
+    steps are the reference's), where the reference's heat solves mix the two
+    sides only on sheets thinner than a few grid spacings.  Perona-Malik extends the gradient's
     squared length (one E product instead of six), Beltrami the two invariants
     it needs.  Each step's ``E (v + tau A v)`` is the reference's, with A
     assembled from the same weights.
