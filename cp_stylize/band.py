@@ -276,14 +276,11 @@ class Band:
         flat = self._flat(np.where(inside[..., None], rel, 0))
         return np.where(inside, self._index.ravel()[flat], -1)
 
-    def neighbors(self, offsets, rows=slice(None)):
-        """Band indices of the grid points at ``offsets`` (K, 3) from each band point: (N, K), -1 if absent.
-
-        ``rows`` (a slice) restricts the band points asked about.
-        """
+    def neighbors(self, offsets):
+        """Band indices of the grid points at ``offsets`` (K, 3) from each band point: (N, K), -1 if absent."""
         offsets = np.asarray(offsets, dtype=np.int64).reshape(-1, 3)
         known = self._stencil_table
-        if known is not None and rows == slice(None):
+        if known is not None:
             # the stencil's neighbours are looked up once, when the band is built
             where = {tuple(o): k for k, o in enumerate(known[0].tolist())}
             cols = [where.get(tuple(o)) for o in offsets.tolist()]
@@ -294,7 +291,7 @@ class Band:
         if reach > 1:  # the index volume keeps a margin of one point: widen it for longer offsets
             index = np.pad(index, reach - 1, constant_values=-1)
             shape, lo = index.shape, lo - (reach - 1)
-        base = _flat(self.ijk[rows] - lo, shape)
+        base = _flat(self.ijk - lo, shape)
         steps = _flat(offsets, shape)
         out = np.empty((len(base), len(offsets)), dtype=index.dtype)
         flat = index.ravel()
@@ -366,10 +363,14 @@ class Band:
         ``w`` has shape (N,) or (N, k); float64 stays float64, other types become float32.
         """
         w = self._check_values(w)
-        key = ("split E", w.dtype)
+        return apply(self.split_matrix("E", w.dtype), w)
+
+    def split_matrix(self, name, dtype=np.float32):
+        """E (``"E"``) or L (``"L"``) as a :class:`~cp_stylize.sparse.SplitMatrix`, whose products use all cores."""
+        key = ("split", name, _float_type(dtype))
         if key not in self._matrices:
-            self._matrices[key] = SplitMatrix(self.extension_matrix(w.dtype))
-        return apply(self._matrices[key], w)
+            self._matrices[key] = SplitMatrix(self._matrix(name, dtype))
+        return self._matrices[key]
 
     # -- finite differences -------------------------------------------------
 

@@ -23,7 +23,7 @@ import numpy as np
 from .heat import heat_rows, time_steps
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
-from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gradient_matrices
+from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
 from .structure import eigen_2x2, outer_products, reduce_to_tangent, structure_tensor
 from .tangent import tangent_basis
 
@@ -349,13 +349,13 @@ class _FastFlow:
     def __init__(self, band, dtype, mode, params, normals):
         self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
         self.normals = normals
-        self.E = SplitMatrix(band.extension_matrix(dtype))
-        self.laplacian = SplitMatrix(band.laplacian_matrix(dtype)) if mode in ("gaussian", "beltrami") else None
+        self.E = band.split_matrix("E", dtype)
+        self.laplacian = band.split_matrix("L", dtype) if mode in ("gaussian", "beltrami") else None
         self.scale = 0.0
         self.stable_step = np.inf
         self._initial = None
         if mode == "gaussian":
-            self.stable_step = 1.9 * band.h ** 2 / 12.0  # Gershgorin bound of the 7-point Laplacian
+            self.stable_step = DivergenceOperator.stable_step(band.laplacian_matrix(dtype))
             return
         # the parts are independent: build them side by side on the worker threads
         parts = [self._build_presmooth, self._build_divergence]
@@ -392,7 +392,7 @@ class _FastFlow:
         return rows if self.presmooth is None else self.presmooth(rows)
 
     def _products(self, rows):
-        """Mean over channels of ``grad v grad v^T`` at the inner points (6, N); zero elsewhere."""
+        """Mean over channels of ``grad v grad v^T`` (6, N) where the gradients have rows; zero elsewhere."""
         J = np.zeros((6, self.band.size), dtype=self.dtype)
         for v in rows:
             g = [D @ v for D in self.gradients]
@@ -437,8 +437,7 @@ class _FastFlow:
     def _fill(self, G):
         """Set A's weights from the tensor field G (6, N) and its stable step."""
         self.divergence.fill(G, self._A.data)
-        bound = float(np.abs(self._A.data).reshape(-1, 19).sum(axis=1).max()) if self._A.nnz else 0.0
-        self.stable_step = np.inf if bound == 0 else 1.9 / bound
+        self.stable_step = gershgorin_step(np.abs(self._A.data).reshape(-1, 19).sum(axis=1))
         return self.A
 
     def operator(self, rows):
@@ -464,6 +463,6 @@ class _FastFlow:
             (trace,) = self._invariants(rows)
             g = (1.0 / (1.0 + trace / lam2)).astype(self.dtype)
             return self._fill(_isotropic(g)), None
-        trace, second = self._invariants(rows if p["sigma"] == 0 else self._smoothed(rows))
+        trace, second = self._invariants(self._smoothed(rows))
         inv = (0.5 / (1.0 + trace / lam2 + second / lam2 / lam2)).astype(self.dtype)
         return self._fill(_isotropic(inv)), inv

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["gradient_matrices", "DivergenceOperator", "TENSOR_COMPONENTS"]
+__all__ = ["gradient_matrices", "gershgorin_step", "DivergenceOperator", "TENSOR_COMPONENTS"]
 
 #: Order of the six independent components of a symmetric 3x3 tensor field.
 TENSOR_COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
@@ -82,52 +82,34 @@ class DivergenceOperator:
         if np.any(columns < 0):
             raise RuntimeError("an inner band point lacks part of its 19-point stencil")
         self._template = _rows_csr(band, self.rows, columns, np.zeros(columns.shape), 19, self.dtype)
-        #: band indices (n_inner, 19) of each inner point's stencil: a view of the matrix's own
-        self.columns = self._template.indices.reshape(len(self.rows), 19)
-        self._columns_t = None
-
-    def coefficients(self, G):
-        """Stencil weights (n_inner, 19) for a tensor field ``G`` (6, N) in :data:`TENSOR_COMPONENTS` order."""
-        h2 = self.band.h ** 2
-        c = self.columns
-        w = np.empty(c.shape, dtype=np.float64)
-        comp = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
-        for a in range(3):
-            g = G[a]
-            centre = g[c[:, 0]]
-            for j, s in enumerate((1, -1)):
-                w[:, 1 + 2 * a + j] = 0.5 * (centre + g[c[:, 1 + 2 * a + j]]) / h2
-        w[:, 0] = -w[:, 1:7].sum(axis=1)
-        for k, (a, b, sa, sb) in enumerate(self._diagonals):
-            g = G[comp[(a, b)]]
-            at_a = g[c[:, 1 + 2 * a + (0 if sa > 0 else 1)]]
-            at_b = g[c[:, 1 + 2 * b + (0 if sb > 0 else 1)]]
-            w[:, 7 + k] = sa * sb * (at_a + at_b) / (4.0 * h2)
-        return w
+        #: band indices of the inner points' stencils by stencil slot (19, n_inner)
+        self.columns = np.ascontiguousarray(columns.T)
 
     def matrix(self, G):
-        """The CSR matrix A(G) (N, N); rows outside the inner points are empty."""
-        A = self._template.copy()
-        A.data = self.coefficients(G).astype(self.dtype).ravel()
+        """The CSR matrix A(G) (N, N); rows outside the inner points are empty.
+
+        The weights are computed in float64 whatever G's type.
+        """
+        A = self._template.copy()  # its own index arrays: SciPy may sort them in place
+        self.fill(np.asarray(G, dtype=np.float64), A.data)
         return A
 
     def fill(self, G, data):
-        """Write the weights of A(G) into ``data`` (19 n_inner,), in A's entry order.
+        """Write the weights of A(G) into ``data`` (19 n_inner,), in A's entry order; returns ``data``.
 
-        The numbers of :meth:`coefficients`, computed in G's precision from
-        the 21 gathers they need: each face's diagonal entry, the centre's,
-        and each mixed entry at the four faces of its plane.
+        Computed in G's precision from the 21 gathers they need: each face's
+        diagonal entry, the centre's, and each mixed entry at the four faces
+        of its plane.
         """
-        if self._columns_t is None:
-            self._columns_t = np.ascontiguousarray(self.columns.T)
-        c = self._columns_t
+        c = self.columns
         n, h2 = len(self.rows), self.band.h ** 2
         w = np.empty((19, n), dtype=G.dtype)  # by stencil slot: every step runs along memory
         for a in range(3):
             centre = G[a][c[0]]
             for j in (1 + 2 * a, 2 + 2 * a):
                 np.add(centre, G[a][c[j]], out=w[j])
-        w[1:7] *= 0.5 / h2
+        w[1:7] *= 0.5
+        w[1:7] /= h2
         np.sum(w[1:7], axis=0, out=w[0])
         np.negative(w[0], out=w[0])
         comp = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
@@ -138,12 +120,18 @@ class DivergenceOperator:
                 if (a, b, axis, sign) not in at:
                     at[(a, b, axis, sign)] = g[c[1 + 2 * axis + (0 if sign > 0 else 1)]]
             np.add(at[(a, b, a, sa)], at[(a, b, b, sb)], out=w[7 + k])
-            w[7 + k] *= sa * sb / (4.0 * h2)
+            w[7 + k] *= sa * sb
+            w[7 + k] /= 4.0 * h2
         data.reshape(n, 19)[:] = w.T
         return data
 
     def template(self):
-        """A(G) with all weights zero, to fill in place; it shares its index arrays with the operator."""
+        """A(G) with all weights zero, to fill in place with :meth:`fill` and multiply with.
+
+        It shares its index arrays with the operator (they are as large as
+        E's): use it for products only, since SciPy operations that sort
+        indices do so in place and would break the order :meth:`fill` writes in.
+        """
         T = self._template
         return sp.csr_matrix((np.zeros_like(T.data), T.indices, T.indptr), shape=T.shape, copy=False)
 
@@ -153,6 +141,10 @@ class DivergenceOperator:
 
         ``1.9 / max_i sum_j |A_ij|`` (a little under 2 / rho(A)); infinite for A = 0.
         """
-        absolute = abs(A)
-        bound = np.asarray(absolute.sum(axis=1)).max() if A.nnz else 0.0
-        return np.inf if bound == 0 else 1.9 / bound
+        return gershgorin_step(np.asarray(abs(A).sum(axis=1)) if A.nnz else np.zeros(0))
+
+
+def gershgorin_step(row_sums):
+    """``1.9 / max(row_sums)`` from the rows' sums of absolute values; infinite if all are 0."""
+    bound = float(np.max(row_sums)) if np.size(row_sums) else 0.0
+    return np.inf if bound == 0 else 1.9 / bound
