@@ -40,7 +40,7 @@ import scipy.sparse as sp
 
 from .sparse import SplitMatrix, map_parallel
 
-__all__ = ["Band", "band_width", "estimate_band_size", "STENCILS", "lagrange_weights"]
+__all__ = ["Band", "band_width", "estimate_band_size", "flat_index", "STENCILS", "lagrange_weights"]
 
 _AXES = np.eye(3, dtype=np.int64)
 
@@ -291,8 +291,8 @@ class Band:
         if reach > 1:  # the index volume keeps a margin of one point: widen it for longer offsets
             index = np.pad(index, reach - 1, constant_values=-1)
             shape, lo = index.shape, lo - (reach - 1)
-        base = _flat(self.ijk - lo, shape)
-        steps = _flat(offsets, shape)
+        base = flat_index(self.ijk - lo, shape)
+        steps = flat_index(offsets, shape)
         out = np.empty((len(base), len(offsets)), dtype=index.dtype)
         flat = index.ravel()
         for k, step in enumerate(steps):
@@ -303,7 +303,7 @@ class Band:
 
     def _flat(self, rel):
         """Flat positions in the index volume of coordinates relative to its corner."""
-        return _flat(rel, self._shape)
+        return flat_index(rel, self._shape)
 
     def _interpolation_matrix(self, x, dtype):
         x = np.asarray(x, dtype=np.float64)
@@ -430,8 +430,8 @@ class Band:
         return v.astype(_float_type(v.dtype), copy=False)
 
 
-def _flat(rel, shape):
-    """Flat positions in a C-ordered volume of ``shape`` of coordinates ``rel`` (..., 3)."""
+def flat_index(rel, shape):
+    """Flat positions in a C-ordered volume of ``shape`` of integer coordinates ``rel`` (..., 3)."""
     return (rel[..., 0] * shape[1] + rel[..., 1]) * shape[2] + rel[..., 2]
 
 

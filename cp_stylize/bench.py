@@ -46,9 +46,6 @@ SIZES = {
     "suzanne": {"full": {"h": 0.008, "size": 1024}, "quick": {"h": 0.04, "size": 256}},
 }
 
-#: The paper's Fig. 4 parameters at h = 0.0125 (times scale with h^2 at other spacings).
-TORUS_PARAMS = {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}
-
 
 def _best(fn, repeat):
     best = np.inf
@@ -74,6 +71,8 @@ def _extend_seconds(band, channels):
 
 def run_torus(scheme, quick):
     from .diffusion import PAPER_CFL, diffuse
+    from .paper import FIG4, torus_stripes
+    from .texture import bake_map
 
     size = SIZES["torus"]["quick" if quick else "full"]
     h, steps = size["h"], size["steps"]
@@ -87,18 +86,15 @@ def run_torus(scheme, quick):
     band.laplacian_matrix()
     times["L"] = time.perf_counter() - start
     start = time.perf_counter()
-    s, t = torus.parameters(band.cp)
-    clean = (np.sin(2 * np.pi * (4 * s + t)) > 0).astype(np.float32)
-    noisy = band.extend(clean + np.random.default_rng(0).normal(0, 0.3, band.size).astype(np.float32))
+    _, noisy = torus_stripes(band)
     times["bake_in"] = time.perf_counter() - start
-    scale = (h / 0.0125) ** 2
+    scale = (h / 0.0125) ** 2  # the paper's times are for h = 0.0125
     start = time.perf_counter()
     out = diffuse(band, noisy, mode="eed", T=steps * PAPER_CFL * h * h, scheme=scheme,
-                  **{k: v * scale if k != "lambda_rel" else v for k, v in TORUS_PARAMS.items()})
+                  **{k: v * scale if k != "lambda_rel" else v for k, v in FIG4["eed"].items()})
     times["diffusion"] = time.perf_counter() - start
     start = time.perf_counter()
-    S, U = np.meshgrid((np.arange(800) + 0.5) / 800, (np.arange(320) + 0.5) / 320)
-    image = band.interpolate(out, torus.point(S.ravel(), U.ravel())).reshape(S.shape)
+    image = bake_map(band, out, 320, 800)
     times["bake_out"] = time.perf_counter() - start
     limit = _extend_seconds(band, 1) if scheme == "fast" else None
     return band.size, steps, times, np.clip(image, 0, 1), limit

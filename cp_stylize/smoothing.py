@@ -39,6 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 
+from .band import flat_index
 from .sparse import SplitMatrix, map_parallel
 
 __all__ = ["GaussianSmoother", "GridGaussian", "gaussian_taps", "taper"]
@@ -75,21 +76,16 @@ class GaussianSmoother:
     def __init__(self, band, t, weights=None, dtype=np.float32):
         self.dtype = np.dtype(dtype)
         self.std = math.sqrt(2.0 * float(t)) / band.h
-        self.weights = _weights(band, weights, self.dtype)
-        if self.std == 0:
-            self.passes = []
-            self.covered = self.weights > 0
-            self.scale = self.covered.astype(self.dtype)
-            return
-        offsets, taps = gaussian_taps(self.std)
-        # first along z: in the band's (i, j, k) order those neighbours are near in memory
-        self.passes = [SplitMatrix(_axis_matrix(band, axis, offsets, taps, self.dtype,
-                                                self.weights if first else None))
-                       for first, axis in zip((True, False, False), (2, 1, 0))]
-        weight = self._convolve(np.ones(band.size, self.dtype))
-        tiny = 1e-6 * float(weight.max())
-        self.covered = weight > tiny
-        self.scale = np.where(self.covered, 1.0 / np.where(self.covered, weight, 1.0), 0.0).astype(self.dtype)
+        weights = _weights(band, weights, self.dtype)
+        if self.std > 0:
+            offsets, taps = gaussian_taps(self.std)
+            # first along z: in the band's (i, j, k) order those neighbours are near in memory
+            self.passes = [SplitMatrix(_axis_matrix(band, axis, offsets, taps, self.dtype,
+                                                    weights if first else None))
+                           for first, axis in zip((True, False, False), (2, 1, 0))]
+        else:  # no blur: the weights alone
+            self.passes = [sp.diags(weights, format="csr")]
+        self.covered, self.scale = _normalisation(self._convolve(np.ones(band.size, self.dtype)), self.dtype)
 
     def _convolve(self, v):
         for M in self.passes:
@@ -98,8 +94,6 @@ class GaussianSmoother:
 
     def __call__(self, rows):
         rows = np.asarray(rows)
-        if not self.passes:
-            return rows * self.scale
         out = np.empty(rows.shape, dtype=self.dtype)
         for j in range(len(rows)):  # each pass already runs on all cores
             out[j] = self._convolve(rows[j].astype(self.dtype, copy=False)) * self.scale
@@ -136,6 +130,13 @@ def taper(dist, reach):
     """
     d = np.abs(np.asarray(dist, dtype=np.float64)) / reach
     return np.where(d < 1, np.cos(0.5 * np.pi * np.minimum(d, 1)) ** 2, 0.0)
+
+
+def _normalisation(weight, dtype):
+    """``(covered, scale)`` of a normalised convolution from the blurred weights: ``1 / weight`` where
+    the weight is not negligible, else 0."""
+    covered = weight > 1e-6 * float(weight.max())
+    return covered, np.where(covered, 1.0 / np.where(covered, weight, 1.0), 0.0).astype(dtype)
 
 
 def _weights(band, weights, dtype):
@@ -194,7 +195,7 @@ class GridGaussian:
         radius = int(math.ceil(TRUNCATE * self.std)) + 2
         cell = ijk // f + radius
         self.shape = tuple(int(s) for s in cell.max(axis=0) + 1 + radius)
-        flat = (cell[:, 0] * self.shape[1] + cell[:, 1]) * self.shape[2] + cell[:, 2]
+        flat = flat_index(cell, self.shape)
         n_cells = int(np.prod(self.shape))
         # restriction: the weighted sum of the points of each cell
         src = np.flatnonzero(weights)
@@ -207,21 +208,19 @@ class GridGaussian:
         g = (ijk + 0.5) / f - 0.5 + radius
         base = np.floor(g).astype(np.int64)
         frac = (g - base).astype(self.dtype)
-        corner0 = (base[:, 0] * self.shape[1] + base[:, 1]) * self.shape[2] + base[:, 2]
+        corner0 = flat_index(base, self.shape)
         del g, base
         cols = np.empty((band.size, 8), np.int32 if n_cells < 2**31 else np.int64)
         vals = np.empty((band.size, 8), self.dtype)
         for k, corner in enumerate(itertools.product((0, 1), repeat=3)):
-            cols[:, k] = corner0 + (corner[0] * self.shape[1] + corner[1]) * self.shape[2] + corner[2]
+            cols[:, k] = corner0 + flat_index(np.array(corner), self.shape)
             vals[:, k] = 1
             for a in range(3):
                 vals[:, k] *= frac[:, a] if corner[a] else 1 - frac[:, a]
         self.prolong = SplitMatrix(sp.csr_matrix(
             (vals.ravel(), cols.ravel(), np.arange(0, 8 * band.size + 1, 8, dtype=cols.dtype)),
             shape=(band.size, n_cells)))
-        weight = self._blur(np.ones((1, band.size), self.dtype))[0]
-        self.covered = weight > 1e-6 * float(weight.max())
-        self.scale = np.where(self.covered, 1.0 / np.where(self.covered, weight, 1.0), 0.0).astype(self.dtype)
+        self.covered, self.scale = _normalisation(self._blur(np.ones((1, band.size), self.dtype))[0], self.dtype)
 
     def _blur(self, rows):
         out = np.empty((len(rows), self.prolong.shape[0]), dtype=self.dtype)
