@@ -7,13 +7,25 @@ NumPy and SciPy.  Public API:
 - the computational band: :class:`Band` (closest points, extension E, Laplacian L);
 - surface heat flow: :func:`heat`;
 - anisotropic and nonlinear surface diffusion: :func:`diffuse` (modes :data:`MODES`).
+
+The names load on first use, so that importing the package (as the Blender
+add-on does when it is enabled) does not import SciPy.
 """
 
-from .band import Band, band_width
-from .diffusion import MODES, diffuse
-from .heat import heat
-from .mesh import TriangleMesh
-from .surfaces import Sphere, Torus
+import importlib
 
-__all__ = ["Band", "MODES", "Sphere", "Torus", "TriangleMesh", "band_width", "diffuse", "heat"]
+_PUBLIC = {"Band": "band", "band_width": "band", "MODES": "parameters", "diffuse": "diffusion", "heat": "heat_flow",
+           "TriangleMesh": "mesh", "Sphere": "surfaces", "Torus": "surfaces"}
+
+__all__ = sorted(_PUBLIC)
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    if name in _PUBLIC:
+        return getattr(importlib.import_module(f".{_PUBLIC[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_PUBLIC))

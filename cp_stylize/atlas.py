@@ -43,7 +43,7 @@ from scipy import ndimage
 from .mesh import _expand, _split_counts
 from .texture import bilinear
 
-__all__ = ["Atlas", "uv_atlas", "uv_problems", "sample_texture", "bake_to_atlas"]
+__all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "sample_texture", "bake_to_atlas"]
 
 #: Texel centres rasterised at once.
 _TEXELS = 1 << 21
@@ -227,7 +227,15 @@ def _problems(uv, size):
     return problems, raster
 
 
-def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None):
+class UnusableUVs(ValueError):
+    """The mesh's own UVs cannot hold the output and no new atlas may be made; ``problems`` says why."""
+
+    def __init__(self, problems):
+        self.problems = problems
+        super().__init__("the mesh's own UVs are not usable: " + problems)
+
+
+def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=True):
     """The UV layout of the output texture: the mesh's own UVs if usable, else a new xatlas unwrap.
 
     Parameters
@@ -242,6 +250,9 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None):
         Unwrap with xatlas even when ``uvs`` are usable.
     padding : int, optional
         Texels between xatlas charts; default ``max(2, size // 256)``.
+    allow_new : bool
+        False: raise :class:`UnusableUVs` instead of unwrapping when ``uvs``
+        are missing or not usable.
 
     Returns
     -------
@@ -266,8 +277,12 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None):
             return Atlas(uvs=uvs.copy(), size=size, generated=False, reason="the mesh's own UVs are usable",
                          texels=texels, face=mesh.face_index[tri], bary=bary)
         reason = "the mesh's own UVs are not usable: " + "; ".join(problems)
+        if not allow_new:
+            raise UnusableUVs("; ".join(problems))
     else:
         reason = "a new atlas was requested" if force_new else "the mesh has no UVs"
+        if not allow_new:
+            raise UnusableUVs(reason[len("the mesh "):] if uvs is None else reason)
     new = _xatlas_uvs(mesh, size, padding=padding)
     texels, tri, bary, _ = _rasterise(new[mesh.face_index], size)
     return Atlas(uvs=new, size=size, generated=True, reason=reason,

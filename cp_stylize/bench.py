@@ -34,7 +34,7 @@ import time
 import numpy as np
 
 from .band import Band
-from .heat import heat
+from .heat_flow import heat
 from .sparse import workers
 from .surfaces import Sphere, Torus
 
@@ -102,7 +102,7 @@ def run_torus(scheme, quick):
 
 def run_suzanne(scheme, quick, data):
     from .diffusion import PAPER_CFL
-    from .heat import time_steps
+    from .heat_flow import time_steps
     from .pipeline import ColourInput, stylize
     from .presets import load_preset
 

@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .heat import heat_rows, time_steps
+from .heat_flow import heat_rows, time_steps
+from .parameters import DEFAULTS, MODES
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
@@ -29,20 +30,8 @@ from .tangent import tangent_basis
 
 __all__ = ["diffuse", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
 
-MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami")
-
 #: Time stepping schemes: see :func:`diffuse`.
 SCHEMES = ("fast", "reference")
-
-#: Default parameters by mode (surface units; times in length^2).  EED and
-#: Perona-Malik follow the paper's Fig. 4, CED its eq. (55).
-DEFAULTS = {
-    "gaussian": {},
-    "perona_malik": {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0},
-    "eed": {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3},
-    "ced": {"sigma": 1e-4, "rho": 4e-4, "alpha": 1e-3, "b_rel": 1e-3},
-    "beltrami": {"sigma": 0.0, "lambda_rel": 0.1},
-}
 
 #: The paper's time step, tau = 0.15 h^2 (section 5).
 PAPER_CFL = 0.15

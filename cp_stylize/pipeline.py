@@ -2,28 +2,70 @@
 
 1. Normalise the mesh so that its longest side is 2 (the paper's scale, so a
    setting looks the same whatever the object's size).
-2. Build the closest point band around it.
-3. Bake the surface colour into the band (textures through per-corner UVs,
+2. Decide the output's UV atlas (first, so that a mesh that cannot get one
+   fails before the long part).
+3. Build the closest point band around the mesh.
+4. Bake the surface colour into the band (textures through per-corner UVs,
    per-corner colours elsewhere).
-4. Optionally replace a fraction of the band points with palette colours.
-5. Diffuse on the surface.
-6. Bake the band's values into a UV atlas image.
+5. Optionally replace a fraction of the band points with palette colours.
+6. Diffuse on the surface.
+7. Bake the band's values into the atlas image.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+import typing
 
 import numpy as np
 
-from .atlas import bake_to_atlas, sample_texture, uv_atlas
-from .band import Band
+from .atlas import UnusableUVs, bake_to_atlas, sample_texture, uv_atlas
+from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
 from .noise import inject_noise
 
-__all__ = ["ColourInput", "StylizeResult", "sample_colours", "stylize"]
+__all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
+           "stencil_for", "sample_colours", "stylize", "estimate", "estimate_run"]
+
+#: Every object is scaled so that its longest side is this long (the paper's scale).
+NORMAL_LENGTH = 2.0
+
+
+def normalisation(vertices, faces):
+    """``(centre, scale)`` that map the mesh to a longest side of 2 centred at the origin.
+
+    The box is that of the vertices the faces use: loose vertices, which the
+    surface does not have, do not count.  Raises ValueError for a mesh with
+    no extent or with positions that are not finite numbers.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
+    if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
+        raise ValueError(f"faces must have shape (F, 3) with F > 0, got {faces.shape}")
+    used = vertices[np.unique(faces)]
+    lo, hi = used.min(axis=0), used.max(axis=0)
+    longest = float((hi - lo).max())
+    if not np.isfinite(longest) or longest <= 0:
+        raise ValueError(f"the mesh has no extent (longest side {longest!r})")
+    return 0.5 * (lo + hi), NORMAL_LENGTH / longest
+
+
+def stencil_for(mode):
+    """The band stencil a filter mode needs: the 7-point Laplacian for ``"gaussian"``, else scheme (51)'s."""
+    return "laplacian" if mode == "gaussian" else "anisotropic"
+
+
+class Texture(typing.NamedTuple):
+    """An image read through per-corner UVs on some faces of a mesh (see :class:`ColourInput`)."""
+
+    image: np.ndarray              # (H, W, C), row 0 at the bottom
+    uvs: np.ndarray                # (F, 3, 2)
+    faces: np.ndarray              # (F,) bool: the faces it colours
+    wrap: tuple = ("repeat", "repeat")  # beyond [0, 1]: see cp_stylize.texture.bilinear
 
 
 @dataclasses.dataclass
@@ -35,10 +77,11 @@ class ColourInput:
     corner_colours : ndarray (F, 3, C) or None
         Colours at the corners of each face, interpolated across the face
         (a colour attribute, or a material's flat base colour).
-    textures : list of (image, uvs, faces)
+    textures : list of :class:`Texture` or (image, uvs, faces) tuples
         Images (H, W, C), row 0 at the bottom, each read through per-corner UVs
-        (F, 3, 2) on the faces where the boolean mask ``faces`` (F,) is set.
-        Textures win over ``corner_colours``.
+        (F, 3, 2) on the faces where the boolean mask ``faces`` (F,) is set,
+        with its ``wrap`` beyond [0, 1] (default: repeat).  Textures win over
+        ``corner_colours``.
     """
 
     corner_colours: np.ndarray | None = None
@@ -68,14 +111,16 @@ def sample_colours(band, colours, channels=3):
     if colours.corner_colours is not None:
         corners = np.asarray(colours.corner_colours, dtype=np.float32)[band.face, :, :channels]
         values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", band.bary.astype(np.float32), corners)
-    for image, uvs, faces in colours.textures:
+    for texture in colours.textures:
+        image, uvs, faces, wrap = Texture(*texture)
         chosen = np.asarray(faces, dtype=bool)[band.face]
-        sampled = sample_texture(band, uvs, np.asarray(image, dtype=np.float32))[chosen]
+        sampled = sample_texture(band, uvs, np.asarray(image, dtype=np.float32), wrap=wrap)[chosen]
         values[chosen, :min(channels, sampled.shape[1])] = sampled[:, :channels]
     return values
 
 
-def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", progress=None, log=None, on_band=None):
+def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
+            progress=None, log=None, on_band=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
 
     Parameters
@@ -88,6 +133,11 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", prog
     uvs : ndarray (F, 3, 2), optional
         The mesh's own per-corner UVs for the output atlas; used where usable,
         otherwise a new atlas is made (see :func:`cp_stylize.atlas.uv_atlas`).
+    atlas : Atlas, optional
+        The output atlas, already decided by the caller (``uvs`` is then not used).
+    new_atlas : bool
+        False: raise :class:`UnusableUVs` (before the band is built) rather than
+        make a new atlas when ``uvs`` are missing or unusable.
     scheme : {"fast", "reference"}
         The diffusion's time stepping (see :func:`cp_stylize.diffuse`).
     progress : callable, optional
@@ -106,20 +156,15 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", prog
 
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
-    vertices = np.asarray(vertices, dtype=np.float64)
-    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
-        raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    longest = float((hi - lo).max())
-    if not np.isfinite(longest) or longest <= 0:
-        raise ValueError(f"the mesh has no extent (longest side {longest!r})")
-    scale = 2.0 / longest
-    mesh = TriangleMesh((vertices - 0.5 * (lo + hi)) * scale, faces)
+    centre, scale = normalisation(vertices, faces)
+    mesh = TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale, faces)
     if mesh.skipped_faces:
         say(f"skipped {mesh.skipped_faces} degenerate face(s)")
     report(0.0)
-    stencil = "laplacian" if settings.mode == "gaussian" else "anisotropic"
-    band = Band.build(mesh, settings.spacing, stencil=stencil)
+    if atlas is None:
+        atlas = uv_atlas(mesh, settings.image_size, uvs, allow_new=new_atlas)
+    lap("atlas")
+    band = Band.build(mesh, settings.spacing, stencil=stencil_for(settings.mode))
     lap("band")
     timings["band_E"] = band.timings["E"]  # part of "band"
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
@@ -134,10 +179,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, scheme="fast", prog
     lap("bake_in")
     report(0.15)
     result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
-                     progress=lambda f: report(0.15 + 0.75 * f))
+                     progress=lambda f: report(0.15 + 0.8 * f))
     lap("diffusion")
-    atlas = uv_atlas(mesh, settings.image_size, uvs)
-    report(0.95)
     image = bake_to_atlas(band, result, atlas, margin=settings.margin)
     lap("bake_out")
     report(1.0)
@@ -162,7 +205,7 @@ BYTES_PER_BAND_POINT = 1600
 def estimate_run(n_points, settings, channels=3):
     """Rough ``(seconds, bytes)`` of a run (band, bake-in, fast diffusion, bake-out) on ``n_points``."""
     from .diffusion import PAPER_CFL
-    from .heat import time_steps
+    from .heat_flow import time_steps
 
     steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing ** 2)
     per_point = SECONDS_SETUP_PER_POINT["gaussian" if settings.mode == "gaussian" else "other"]
@@ -170,3 +213,24 @@ def estimate_run(n_points, settings, channels=3):
     if settings.mode != "gaussian":
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
     return n_points * per_point, n_points * BYTES_PER_BAND_POINT
+
+
+@dataclasses.dataclass(frozen=True)
+class RunEstimate:
+    """What a run on a mesh will take, before it runs."""
+
+    spacing: float       # grid spacing in the mesh's own units
+    band_points: int
+    bytes: int
+    seconds: float
+
+
+def estimate(vertices, faces, settings, channels=3):
+    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings``."""
+    centre, scale = normalisation(vertices, faces)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
+    area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
+    n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
+    seconds, nbytes = estimate_run(n, settings, channels)
+    return RunEstimate(settings.spacing / scale, n, nbytes, seconds)

@@ -26,18 +26,20 @@ the extension)::
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import tomllib
 
-from .diffusion import MODES
+from .parameters import FILTER_PARAMETERS, MODES, RUN, check_value
 
 __all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex"]
 
 #: The presets shipped with cp_stylize.
 PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets")
 
-_PARAMS = ("sigma", "rho", "alpha", "b_rel", "lambda_rel")
+_PARAMS = tuple(FILTER_PARAMETERS)
+
+#: Output image sizes a run may ask for, in texels a side.
+IMAGE_SIZES = (16, 8192)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,24 +64,20 @@ class StylizeSettings:
     description: str = ""
 
     def __post_init__(self):
+        """Check every value against its limits in :mod:`cp_stylize.parameters` (the panel's limits)."""
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        for field in ("T", "spacing"):
-            value = getattr(self, field)
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"{field} must be a positive number, got {value!r}")
-        for field in _PARAMS:
-            value = getattr(self, field)
-            if value is not None and (not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0):
-                raise ValueError(f"{field} must be a non-negative number, got {value!r}")
-        if not 0.0 <= self.noise_fraction <= 1.0:
-            raise ValueError(f"noise fraction must lie in [0, 1], got {self.noise_fraction!r}")
+        for parameter in RUN.values():
+            parameter.check(getattr(self, parameter.name))
+        for name in _PARAMS:
+            value = getattr(self, name)
+            if value is not None:
+                FILTER_PARAMETERS[name].check(value)
         if self.noise_fraction > 0 and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
-        if not 16 <= int(self.image_size) <= 8192:
-            raise ValueError(f"image size must lie in [16, 8192], got {self.image_size!r}")
+        check_value("image size", self.image_size, *IMAGE_SIZES)
 
     def diffusion_parameters(self):
         """Keyword arguments for :func:`cp_stylize.diffuse`, without the band and data."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .heat import heat_rows
+from .heat_flow import heat_rows
 from .stencils import TENSOR_COMPONENTS
 
 __all__ = ["outer_products", "structure_tensor", "reduce_to_tangent", "eigen_2x2", "full_tensor"]

@@ -13,7 +13,7 @@ import zlib
 
 import numpy as np
 
-__all__ = ["bilinear", "sample_map", "bake_map", "write_png", "srgb_to_linear",
+__all__ = ["WRAPS", "bilinear", "sample_map", "bake_map", "write_png", "srgb_to_linear",
            "linear_to_srgb"]
 
 
@@ -28,6 +28,33 @@ def _check_image(image):
     return image
 
 
+#: How a lookup continues beyond the image's edge texel centres (Blender's Image Texture
+#: "Extension": EXTEND is "clamp", REPEAT "repeat", MIRROR "mirror", CLIP "clip").
+WRAPS = ("clamp", "repeat", "mirror", "clip")
+
+
+def _texel_indices(coord, n, mode):
+    """Lower and upper texel index, weight of the upper, and (for "clip") which indices lie inside."""
+    x = coord * n - 0.5
+    i0 = np.floor(x)
+    f = x - i0
+    i0 = i0.astype(np.int64)
+    i1 = i0 + 1
+    inside = None
+    if mode == "repeat":
+        i0, i1 = np.mod(i0, n), np.mod(i1, n)
+    elif mode == "mirror":
+        i0, i1 = np.mod(i0, 2 * n), np.mod(i1, 2 * n)
+        i0, i1 = np.where(i0 >= n, 2 * n - 1 - i0, i0), np.where(i1 >= n, 2 * n - 1 - i1, i1)
+    elif mode in ("clamp", "clip"):
+        if mode == "clip":
+            inside = ((i0 >= 0) & (i0 < n), (i1 >= 0) & (i1 < n), (coord >= 0) & (coord <= 1))
+        i0, i1 = np.clip(i0, 0, n - 1), np.clip(i1, 0, n - 1)
+    else:
+        raise ValueError(f"wrap must be one of {WRAPS}, got {mode!r}")
+    return i0, i1, f[:, None], inside
+
+
 def bilinear(image, uv, *, wrap=("clamp", "clamp")):
     """Bilinear lookup of ``image`` (H, W, C) at texture coordinates ``uv`` (M, 2).
 
@@ -37,8 +64,11 @@ def bilinear(image, uv, *, wrap=("clamp", "clamp")):
         Float image, row 0 at the bottom (``v = 0``).
     uv : ndarray, shape (M, 2)
         Texture coordinates.
-    wrap : pair of {"clamp", "repeat"}
-        What happens beyond the edge texel centres, for ``u`` and ``v``.
+    wrap : pair of {"clamp", "repeat", "mirror", "clip"}
+        What happens beyond the edge texel centres, for ``u`` and ``v``: the
+        edge texels continue, the image repeats, repeats mirrored, or is zero
+        outside (and texels beyond the edge count as zero), as Blender's
+        EXTEND, REPEAT, MIRROR and CLIP.
 
     Returns
     -------
@@ -49,26 +79,21 @@ def bilinear(image, uv, *, wrap=("clamp", "clamp")):
     if uv.ndim != 2 or uv.shape[1] != 2:
         raise ValueError(f"uv must have shape (M, 2), got {uv.shape}")
     h, w = image.shape[:2]
-    idx, frac = [], []
-    for coord, n, mode in ((uv[:, 0], w, wrap[0]), (uv[:, 1], h, wrap[1])):
-        x = coord * n - 0.5
-        i0 = np.floor(x)
-        f = x - i0
-        i0 = i0.astype(np.int64)
-        i1 = i0 + 1
-        if mode == "repeat":
-            i0, i1 = np.mod(i0, n), np.mod(i1, n)
-        elif mode == "clamp":
-            i0, i1 = np.clip(i0, 0, n - 1), np.clip(i1, 0, n - 1)
-        else:
-            raise ValueError(f"wrap must be 'clamp' or 'repeat', got {mode!r}")
-        idx.append((i0, i1))
-        frac.append(f[:, None])
-    (c0, c1), (r0, r1) = idx
-    fu, fv = frac
-    top = image[r1, c0] * (1 - fu) + image[r1, c1] * fu
-    bottom = image[r0, c0] * (1 - fu) + image[r0, c1] * fu
-    return (bottom * (1 - fv) + top * fv).astype(image.dtype, copy=False)
+    c0, c1, fu, cin = _texel_indices(uv[:, 0], w, wrap[0])
+    r0, r1, fv, rin = _texel_indices(uv[:, 1], h, wrap[1])
+    corner = {}
+    for i, r in enumerate((r0, r1)):
+        for j, c in enumerate((c0, c1)):
+            value = image[r, c]
+            if cin is not None:  # clip: texels beyond the edge, and everything outside [0, 1], are zero
+                value = value * (cin[j] & cin[2])[:, None]
+            if rin is not None:
+                value = value * (rin[i] & rin[2])[:, None]
+            corner[i, j] = value
+    top = corner[1, 0] * (1 - fu) + corner[1, 1] * fu
+    bottom = corner[0, 0] * (1 - fu) + corner[0, 1] * fu
+    out = bottom * (1 - fv) + top * fv
+    return out.astype(image.dtype, copy=False)
 
 
 def texel_centres(height, width):

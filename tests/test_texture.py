@@ -17,6 +17,24 @@ def test_bilinear_hits_texel_centres_and_interpolates_linearly():
     assert rep == pytest.approx(0.5 * (img[1, 0, 0] + img[1, 3, 0]))
 
 
+def test_mirror_reflects_the_image_at_its_edges():
+    rng = np.random.default_rng(0)
+    img = rng.random((5, 7, 2))
+    uv = rng.uniform(-1.5, 2.5, (500, 2))
+    folded = np.mod(uv, 2.0)
+    folded = np.where(folded > 1.0, 2.0 - folded, folded)  # the same point of the unit square, reflected
+    np.testing.assert_allclose(bilinear(img, uv, wrap=("mirror", "mirror")), bilinear(img, folded), atol=1e-12)
+
+
+def test_clip_is_zero_outside_the_image_and_fades_over_its_edge_texels():
+    img = np.ones((4, 4, 3))
+    uv = np.array([[-0.01, 0.5], [0.5, 1.01], [0.5, 0.5], [0.5 / 4, 0.5], [0.0, 0.5], [1.0, 1.0]])
+    out = bilinear(img, uv, wrap=("clip", "clip"))[:, 0]
+    # outside: zero; inside: one; at the edge (u = 0, half a texel past the edge centre): half the texel,
+    # at a corner a quarter (the texels beyond the edge are zero), as Blender's CLIP extension
+    np.testing.assert_allclose(out, [0.0, 0.0, 1.0, 1.0, 0.5, 0.25])
+
+
 def test_sphere_map_round_trip_is_accurate_for_a_smooth_image():
     band = Band.build(Sphere(), 0.05)
     v, u = np.meshgrid((np.arange(64) + 0.5) / 64, (np.arange(128) + 0.5) / 128, indexing="ij")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cp_stylize import Band, Sphere, heat
-from cp_stylize.heat import time_steps
+from cp_stylize.heat_flow import time_steps
 
 T = 0.05
 SPACINGS = (0.1, 0.05, 0.025)

@@ -1,0 +1,118 @@
+"""The parameters of a stylization run, and each filter mode's: one table.
+
+Every number a user can set is a :class:`Parameter` here, with its label,
+description, limits and unit.  :data:`FILTERS` says which filter parameters
+each mode takes and their defaults.  The core's validation
+(:class:`~cp_stylize.presets.StylizeSettings`, so preset files too), the
+add-on's properties and panel, and the README's tables are all built from
+these, so a new parameter or mode is an edit in this file.
+
+Units are those of an object normalised to a longest side of 2 (paper,
+section 4.5): ``"time"`` is a diffusion time in squared lengths, ``"length"``
+a length, ``"ratio"`` a number relative to the input's own contrast or a
+fraction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+__all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "check_value"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """One number a user sets: its name (keyword and preset key), label, limits and unit."""
+
+    name: str
+    label: str
+    description: str
+    minimum: float
+    maximum: float
+    default: float
+    unit: str = "ratio"      # "time", "length" or "ratio"
+    precision: int = 6       # digits the panel shows
+    step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
+
+    def check(self, value):
+        """``value`` as a float, or ValueError naming the parameter, its limits and the value."""
+        return check_value(self.name, value, self.minimum, self.maximum)
+
+
+#: Relative slack of the limits: Blender stores the panel's values in single precision.
+_SLACK = 1e-6
+
+
+def check_value(name, value, minimum, maximum):
+    """``float(value)`` if it is a real number in ``[minimum, maximum]``, else ValueError."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not minimum - _SLACK * abs(minimum) <= value <= maximum + _SLACK * abs(maximum):
+        raise ValueError(f"{name} must lie in [{minimum:g}, {maximum:g}], got {value!r}")
+    return float(value)
+
+
+#: The run's own parameters.
+RUN = {p.name: p for p in (
+    Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to 2): how far the "
+                           "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time"),
+    Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a longest "
+                                         "side of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
+    Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
+                                         "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
+)}
+
+#: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
+FILTER_PARAMETERS = {p.name: p for p in (
+    Parameter("sigma", "Pre-smoothing", "Structure tensor pre-smoothing time sigma (the noise scale the "
+                                        "filter ignores)", 0.0, 0.01, 1e-4, "time"),
+    Parameter("rho", "Integration", "Structure tensor integration time rho (the size of the neighbourhood "
+                                    "whose orientation the strokes follow)", 0.0, 0.05, 5e-4, "time"),
+    Parameter("alpha", "Alpha", "CED: smallest diffusivity, across the flow (0 to 1)", 0.0, 1.0, 1e-3,
+              precision=4, step=0.01),
+    Parameter("b_rel", "Coherence Threshold", "CED: B relative to the largest coherence of the input; "
+                                              "smaller values draw strokes in weaker structure",
+              0.0, 1.0, 1e-3, precision=7, step=0.0001),
+    Parameter("lambda_rel", "Edge Threshold", "Edge sensitivity lambda relative to the input's largest "
+                                              "coherence (EED) or gradient (Perona-Malik, Beltrami)",
+              1e-6, 10.0, 1e-3, precision=5, step=0.01),
+)}
+
+
+@dataclasses.dataclass(frozen=True)
+class Filter:
+    """A filter mode: its label, what it does, and its parameters with their defaults."""
+
+    name: str
+    label: str
+    description: str
+    defaults: dict
+
+    @property
+    def parameters(self):
+        """The :class:`Parameter` of each filter parameter the mode takes, in table order."""
+        return [FILTER_PARAMETERS[k] for k in FILTER_PARAMETERS if k in self.defaults]
+
+
+#: The modes, in the order the panel lists them.  Defaults follow the paper:
+#: EED and Perona-Malik its Fig. 4, CED its eq. (55).
+FILTERS = {f.name: f for f in (
+    Filter("ced", "Coherence-Enhancing",
+           "Weickert's CED: smooths along the flow of the texture, painterly strokes",
+           {"sigma": 1e-4, "rho": 4e-4, "alpha": 1e-3, "b_rel": 1e-3}),
+    Filter("eed", "Edge-Enhancing", "Weickert's EED: removes noise, keeps edges sharp",
+           {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}),
+    Filter("perona_malik", "Perona-Malik", "Edge-stopping smoothing",
+           {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0}),
+    Filter("gaussian", "Gaussian", "Uniform blur on the surface", {}),
+    Filter("beltrami", "Beltrami", "Colour Beltrami flow: smooths regions, sharpens colour edges",
+           {"sigma": 0.0, "lambda_rel": 0.1}),
+)}
+
+#: Mode names, in the core's order.
+MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami")
+
+#: Default filter parameters by mode.
+DEFAULTS = {mode: dict(FILTERS[mode].defaults) for mode in MODES}
+
+assert set(MODES) == set(FILTERS)
