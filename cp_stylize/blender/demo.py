@@ -84,9 +84,9 @@ def save_mesh_arrays(path, texture_name="forest"):
 
     obj, _, _ = build_scene(texture_name)
     job = prepare(obj, StylizeSettings())
-    (image, uvs, faces), = job.colours.textures
-    if not np.all(faces):
+    (texture,) = job.colours.textures
+    if not np.all(texture.faces):
         raise RuntimeError("the demo texture should cover every face")
-    np.savez(path, vertices=job.vertices, faces=job.faces, uvs=uvs, image=image)
+    np.savez(path, vertices=job.mesh.vertices, faces=job.mesh.triangles, uvs=texture.uvs, image=texture.image)
     scene.reset()
     return path

@@ -1,17 +1,27 @@
 """Pixels between Blender images and NumPy arrays (row 0 at the bottom, as Blender stores them)."""
 
+import os
+
 import bpy
 import numpy as np
+
+from .errors import StylizeError
 
 
 def image_to_array(image):
     """RGBA pixels of a Blender image as a float32 array (H, W, 4)."""
     w, h = image.size
     if w == 0 or h == 0:
-        raise ValueError(f"image {image.name!r} has no pixels (is its file missing?)")
-    buf = np.empty(w * h * 4, dtype=np.float32)
+        raise StylizeError(f"image {image.name!r} has no pixels (is its file missing?)")
+    channels = image.channels
+    buf = np.empty(w * h * channels, dtype=np.float32)
     image.pixels.foreach_get(buf)
-    return buf.reshape(h, w, 4)
+    buf = buf.reshape(h, w, channels)
+    if channels == 4:
+        return buf
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = buf[..., :1] if channels < 3 else buf[..., :3]
+    return rgba
 
 
 def array_to_image(name, array, *, colorspace="sRGB", float_buffer=False):
@@ -28,3 +38,53 @@ def array_to_image(name, array, *, colorspace="sRGB", float_buffer=False):
     image.pixels.foreach_set(rgba.ravel())
     image.update()
     return image
+
+
+def check_readable(image):
+    """Raise StylizeError for images cp_stylize cannot read."""
+    if image.source == "TILED":
+        raise StylizeError(f"image {image.name!r} is tiled (UDIM), which is not supported")
+    if image.source not in ("FILE", "GENERATED"):
+        raise StylizeError(f"image {image.name!r} has source {image.source}; use a still image")
+    if image.source == "FILE" and image.packed_file is None:
+        path = bpy.path.abspath(image.filepath, library=image.library)
+        if not os.path.isfile(path):
+            raise StylizeError(f"image {image.name!r}: its file {path!r} is missing")
+    if image.size[0] == 0 or image.size[1] == 0:
+        raise StylizeError(f"image {image.name!r} has no pixels")
+
+
+def display_colours(image, linear):
+    """An image's RGB as display (sRGB-encoded) values (H, W, 3); ``linear``: its pixels are linear.
+
+    Raises StylizeError if pixels are not finite numbers.
+    """
+    from ..texture import linear_to_srgb
+
+    rgb = image_to_array(image)[..., :3]
+    bad = ~np.isfinite(rgb).all(axis=2)
+    if bad.any():
+        count = int(bad.sum())
+        noun = "pixel that is not a finite number" if count == 1 else "pixels that are not finite numbers"
+        raise StylizeError(f"image {image.name!r} has {count} {noun}")
+    if linear:
+        return linear_to_srgb(np.clip(rgb, 0.0, None)).astype(np.float32)
+    return rgb
+
+
+def free_path(folder, stem, ext=".png"):
+    """``folder/stem.png``, or ``stem.001.png``, ``stem.002.png``, ... : the first name nothing uses."""
+    path = os.path.join(folder, stem + ext)
+    number = 0
+    while os.path.lexists(path):
+        number += 1
+        path = os.path.join(folder, f"{stem}.{number:03d}{ext}")
+    return path
+
+
+def write_file(image, path):
+    """Save ``image`` as the PNG file ``path`` and point the image at it (relative to the .blend)."""
+    image.filepath_raw = path
+    image.file_format = "PNG"
+    image.save()
+    image.filepath_raw = bpy.path.relpath(path)

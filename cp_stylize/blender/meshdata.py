@@ -1,31 +1,106 @@
-"""Mesh data out of Blender through NumPy: the evaluated mesh in world space."""
+"""Mesh data out of Blender through NumPy: the evaluated mesh in world space, as plain arrays."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
 
 import bpy
 import numpy as np
 
+from .errors import StylizeError
 
-def evaluated_triangles(obj, depsgraph=None):
-    """World-space vertices (V, 3) and triangles (F, 3) of ``obj`` with its modifiers applied."""
-    if obj is None or obj.type != "MESH":
-        raise ValueError("the active object must be a mesh")
+
+@dataclasses.dataclass
+class MeshData:
+    """An object's evaluated mesh (modifiers applied), triangulated, in world space.
+
+    Per-corner arrays are indexed by triangle and corner: ``(F, 3, ...)``.
+    """
+
+    vertices: np.ndarray            # (V, 3) world space
+    triangles: np.ndarray           # (F, 3) vertex indices
+    loops: np.ndarray               # (F, 3) loop (face corner) indices
+    material_index: np.ndarray      # (F,)
+    same_topology: bool             # the evaluated mesh's corners are the original mesh's
+    uv_maps: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 2)
+    render_uv: str | None = None    # the UV map the renderer reads by default
+    colours: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 3) sRGB-encoded
+    render_colour: str | None = None
+
+
+def _get(collection, attr, count, dtype, width=1):
+    data = np.empty(count * width, dtype=dtype)
+    collection.foreach_get(attr, data)
+    return data.reshape(-1, width) if width > 1 else data
+
+
+def read(obj, depsgraph=None, *, corners=True):
+    """The :class:`MeshData` of mesh object ``obj``; ``corners=False`` reads only vertices and triangles.
+
+    Raises StylizeError for a mesh without faces or with vertex positions that
+    are not finite numbers.
+    """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:
         mesh.calc_loop_triangles()
-        verts = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
-        mesh.vertices.foreach_get("co", verts)
-        tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
-        mesh.loop_triangles.foreach_get("vertices", tris)
+        n = len(mesh.loop_triangles)
+        if n == 0:
+            raise StylizeError(f"the mesh {obj.name!r} has no faces")
+        tris = _get(mesh.loop_triangles, "vertices", n, np.int64, 3)
+        verts = _get(mesh.vertices, "co", len(mesh.vertices), np.float64, 3)
+        data = MeshData(vertices=verts, triangles=tris, loops=None, material_index=None,
+                        same_topology=(len(mesh.loops) == len(obj.data.loops)
+                                       and len(mesh.polygons) == len(obj.data.polygons)))
+        if corners:
+            data.loops = _get(mesh.loop_triangles, "loops", n, np.int64, 3)
+            data.material_index = _get(mesh.loop_triangles, "material_index", n, np.int64)
+            for layer in mesh.uv_layers:
+                data.uv_maps[layer.name] = _get(layer.data, "uv", len(mesh.loops), np.float64, 2)[data.loops]
+                if layer.active_render:
+                    data.render_uv = layer.name
+            attributes = mesh.color_attributes
+            for attr in attributes:
+                if attr.domain in ("POINT", "CORNER"):
+                    rgba = _get(attr.data, "color_srgb", len(attr.data), np.float32, 4)
+                    data.colours[attr.name] = rgba[:, :3][data.loops if attr.domain == "CORNER" else tris]
+            data.render_colour = getattr(attributes, "default_color_name", None) or (
+                attributes.active_color_name if len(attributes) else None)
     finally:
         evaluated.to_mesh_clear()
-    verts = verts.reshape(-1, 3)
+    bad = ~np.isfinite(verts[np.unique(tris)]).all(axis=1)
+    if bad.any():
+        count = int(bad.sum())
+        noun = "vertex whose position is" if count == 1 else "vertices whose positions are"
+        raise StylizeError(f"the mesh of {obj.name!r} has {count} {noun} not a finite number")
     matrix = np.array(obj.matrix_world, dtype=np.float64)
-    verts = verts @ matrix[:3, :3].T + matrix[:3, 3]
-    return verts, tris.reshape(-1, 3)
+    data.vertices = verts @ matrix[:3, :3].T + matrix[:3, 3]
+    return data
 
 
-def surface_area(verts, tris):
-    """Total area of triangles (F, 3) over vertices (V, 3)."""
-    a, b, c = (verts[tris[:, k]] for k in range(3))
-    return 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+def fingerprint(obj):
+    """A hash of what a run on ``obj`` read: its mesh, transform, modifiers, UV maps and material slots."""
+    mesh = obj.data
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update(_get(mesh.vertices, "co", len(mesh.vertices), np.float32, 3).tobytes())
+    digest.update(_get(mesh.loops, "vertex_index", len(mesh.loops), np.int32).tobytes())
+    digest.update(_get(mesh.polygons, "loop_total", len(mesh.polygons), np.int32).tobytes())
+    digest.update(_get(mesh.polygons, "material_index", len(mesh.polygons), np.int32).tobytes())
+    digest.update(np.array(obj.matrix_world, dtype=np.float64).tobytes())
+    digest.update(repr([(m.name, m.type, m.show_viewport, m.show_render) for m in obj.modifiers]).encode())
+    digest.update(repr([layer.name for layer in mesh.uv_layers]).encode())
+    return digest.hexdigest()
+
+
+def slots_state(obj):
+    """The material slots as ``[(link, material name or None)]``, to notice a change."""
+    return [(s.link, s.material.name_full if s.material else None) for s in obj.material_slots]
+
+
+def write_corner_uvs(layer, loops, uvs):
+    """Write per-corner ``uvs`` (F, 3, 2) into UV map ``layer`` at the triangle corners ``loops`` (F, 3)."""
+    data = np.zeros((len(layer.data), 2), dtype=np.float32)
+    data[np.asarray(loops).ravel()] = np.asarray(uvs, dtype=np.float32).reshape(-1, 2)
+    layer.data.foreach_set("uv", data.ravel())

@@ -1,33 +1,53 @@
-"""Operators of the add-on: Stylize, the band estimate, presets and the noise palette."""
+"""Operators of the add-on: Stylize, the band estimate, presets and the noise palette.
+
+Every operator is a boundary: whatever goes wrong reaches the user as one
+message (``self.report``), never as a traceback, and leaves the file as it was.
+"""
 
 import os
+import sys
 import time
+import traceback
 
 import bpy
 
-from . import meshdata
+from .errors import Cancelled
 from .properties import QUALITY_SPACING
+
+#: The interactive run in progress (one at a time), or None.
+_running = None
 
 
 def estimate(obj, settings, depsgraph=None):
     """``(h, points, bytes, seconds)`` of a run on ``obj`` with the core's StylizeSettings.
 
-    ``h`` is the grid spacing in world units; raises ValueError for unusable objects.
+    ``h`` is the grid spacing in world units; raises StylizeError (a ValueError) for unusable objects.
     """
-    from ..band import estimate_band_size
-    from ..pipeline import estimate_run
+    from ..pipeline import estimate as estimate_run
+    from . import meshdata, stylize
 
-    verts, tris = meshdata.evaluated_triangles(obj, depsgraph)
-    if len(tris) == 0:
-        raise ValueError(f"the mesh {obj.name!r} has no faces")
-    longest = float((verts.max(axis=0) - verts.min(axis=0)).max())
-    if longest <= 0:
-        raise ValueError(f"the mesh {obj.name!r} has no extent")
-    scale = 2.0 / longest
-    stencil = "laplacian" if settings.mode == "gaussian" else "anisotropic"
-    n = estimate_band_size(meshdata.surface_area(verts, tris) * scale**2, settings.spacing, stencil=stencil)
-    seconds, nbytes = estimate_run(n, settings)
-    return settings.spacing / scale, n, nbytes, seconds
+    stylize.check_object(obj)
+    mesh = meshdata.read(obj, depsgraph, corners=False)
+    guess = estimate_run(mesh.vertices, mesh.triangles, settings)
+    return guess.spacing, guess.band_points, guess.bytes, guess.seconds
+
+
+def guarded(operator, work):
+    """Run ``work()`` and turn any exception into one report; returns the operator's result."""
+    try:
+        return work()
+    except Cancelled:
+        operator.report({"WARNING"}, "stylize cancelled; nothing was changed")
+    except ValueError as err:   # StylizeError, and the core's messages about bad input
+        operator.report({"ERROR"}, str(err))
+    except MemoryError:
+        operator.report({"ERROR"}, "there was not enough memory for this run; nothing was changed: "
+                                   "lower the quality")
+    except Exception as err:
+        traceback.print_exc(file=sys.stderr)
+        operator.report({"ERROR"}, f"cp_stylize failed unexpectedly ({type(err).__name__}: {err}); nothing was "
+                                   "changed. The system console has the details")
+    return {"CANCELLED"}
 
 
 class OBJECT_OT_cp_stylize_estimate(bpy.types.Operator):
@@ -42,14 +62,12 @@ class OBJECT_OT_cp_stylize_estimate(bpy.types.Operator):
         return context.active_object is not None
 
     def execute(self, context):
-        try:
+        def work():
             h, n, nbytes, seconds = estimate(context.active_object, context.scene.cp_stylize.to_settings())
-        except ValueError as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"grid spacing {h:.4g}, about {n:,} band points, {nbytes / 2**20:.0f} MiB, "
-                              f"roughly {seconds:.0f} s")
-        return {"FINISHED"}
+            self.report({"INFO"}, f"grid spacing {h:.4g}, about {n:,} band points, {nbytes / 2**20:.0f} MiB, "
+                                  f"roughly {seconds:.0f} s")
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class OBJECT_OT_cp_stylize(bpy.types.Operator):
@@ -63,106 +81,107 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         name="Preset", description="Run with this preset (a shipped preset's name or a TOML file) "
                                    "instead of the panel's filter settings", default="", options={"SKIP_SAVE"})
     quality: bpy.props.EnumProperty(
-        name="Quality", description="With a preset: its own grid spacing, or one of the quality levels",
-        items=[("PRESET", "Preset", "The preset's own grid spacing")]
+        name="Quality", description="The grid spacing: the preset's or the panel's own, or one of the quality levels",
+        items=[("DEFAULT", "As Set", "The preset's or the panel's own grid spacing")]
         + [(k, k.title(), f"Relative grid spacing {v}") for k, v in QUALITY_SPACING.items()],
-        default="PRESET", options={"SKIP_SAVE"})
+        default="DEFAULT", options={"SKIP_SAVE"})
 
     @classmethod
     def poll(cls, context):
-        return context.mode == "OBJECT"
-
-    # -- shared steps ------------------------------------------------------------------------
+        if context.mode != "OBJECT":
+            cls.poll_message_set("cp_stylize works in Object Mode: leave Edit Mode first"
+                                 if context.mode.startswith("EDIT") else "cp_stylize works in Object Mode")
+            return False
+        if _running is not None:
+            cls.poll_message_set("a Stylize run is in progress (Esc cancels it)")
+            return False
+        return True
 
     def _prepare(self, context):
         from ..presets import load_preset
         from . import stylize
 
         panel = context.scene.cp_stylize
-        obj = context.active_object
-        if obj is None:
-            raise stylize.StylizeError("no active object")
-        if obj.type != "MESH":
-            raise stylize.StylizeError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh")
         settings = load_preset(self.preset) if self.preset else panel.to_settings()
-        if self.preset and self.quality != "PRESET":
+        if self.quality != "DEFAULT":
             settings = settings.replace(spacing=QUALITY_SPACING[self.quality])
         settings = settings.replace(image_size=int(panel.image_size))
-        _, n, nbytes, _ = estimate(obj, settings)
-        if nbytes > panel.memory_limit * 2**30:
-            raise stylize.StylizeError(
-                f"this run needs about {nbytes / 2**30:.1f} GiB (about {n:,} band points), above the memory limit "
-                f"of {panel.memory_limit:.1f} GiB: lower the quality or raise the limit")
-        return stylize.prepare(obj, settings)
+        return stylize.prepare(context.active_object, settings, panel.output())
 
-    def _finish(self, context, job):
+    def _finish(self, job):
         from . import stylize
 
-        panel = context.scene.cp_stylize
-        image = stylize.apply(job, image_name=panel.image_name, target=panel.target, storage=panel.storage)
+        applied = stylize.apply(job)
         result = job.result
-        self.report({"INFO"}, f"stylized {job.obj.name!r} into {image.name!r} in {result.seconds:.1f} s "
+        where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
+        self.report({"INFO"}, f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
                               f"({result.band_size:,} band points, grid spacing {result.spacing:.4g})")
+        return {"FINISHED"}
 
     def execute(self, context):
         from . import stylize
 
-        try:
+        def work():
             job = self._prepare(context)
             stylize.run_core(job, log=print if bpy.app.background else None)
-            self._finish(context, job)
-        except (ValueError, RuntimeError, FloatingPointError, MemoryError) as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+            return self._finish(job)
+        return guarded(self, work)
 
     # -- interactive: a worker thread, progress and Esc ---------------------------------------
 
     def invoke(self, context, event):
-        from . import stylize
-
         if bpy.app.background:
             return self.execute(context)
-        try:
-            self._job = self._prepare(context)
-        except (ValueError, RuntimeError) as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        self._run = stylize.BackgroundRun(self._job).start()
-        self._start = time.perf_counter()
+        return guarded(self, lambda: self._start(context))
+
+    def _start(self, context):
+        from . import stylize
+
+        global _running
+        self._job = self._prepare(context)
+        self._run = _running = stylize.BackgroundRun(self._job).start()
+        self._start_time = time.perf_counter()
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.2, window=context.window)
         wm.progress_begin(0, 100)
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
+    def _stop(self, context):
+        global _running
+        _running = None
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
     def modal(self, context, event):
         run = self._run
         if event.type == "ESC" and event.value == "PRESS":
             run.cancel()
+            return {"RUNNING_MODAL"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
-        wm = context.window_manager
-        wm.progress_update(int(100 * run.fraction))
-        context.workspace.status_text_set(
-            f"Stylizing {self._job.obj.name}: {100 * run.fraction:.0f} % "
-            f"({time.perf_counter() - self._start:.0f} s), Esc to cancel")
         if not run.done:
+            context.window_manager.progress_update(int(100 * run.fraction))
+            what = "cancelling" if run.cancelling else "Esc to cancel"
+            if context.workspace is not None:
+                context.workspace.status_text_set(
+                    f"Stylizing {self._job.object_name}: {100 * run.fraction:.0f} % "
+                    f"({time.perf_counter() - self._start_time:.0f} s), {what}")
             return {"RUNNING_MODAL"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        if run.cancelled:
-            self.report({"WARNING"}, "stylize cancelled; nothing was changed")
-            return {"CANCELLED"}
-        try:
+        self._stop(context)
+
+        def finish():
             if run.error is not None:
                 raise run.error
-            self._finish(context, self._job)
-        except (ValueError, RuntimeError, FloatingPointError, MemoryError, ReferenceError) as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+            return self._finish(self._job)
+        return guarded(self, finish)
+
+    def cancel(self, context):
+        self._run.cancel()
+        self._stop(context)
 
 
 # -- presets -------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 import bpy
 
+from ..parameters import FILTERS
 from . import operators
 
 _estimate_cache = {}
@@ -71,16 +72,8 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
 
         col = layout.column(heading="Filter")
         col.prop(settings, "time")
-        mode = settings.mode
-        if mode != "gaussian":
-            col.prop(settings, "sigma")
-        if mode in ("eed", "ced"):
-            col.prop(settings, "rho")
-        if mode == "ced":
-            col.prop(settings, "alpha")
-            col.prop(settings, "b_rel")
-        if mode in ("eed", "perona_malik", "beltrami"):
-            col.prop(settings, "lambda_rel")
+        for parameter in FILTERS[settings.mode].parameters:
+            col.prop(settings, parameter.name)
 
 
 class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
@@ -116,6 +109,7 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "target")
         layout.prop(settings, "storage")
         layout.prop(settings, "memory_limit")
+        layout.prop(settings, "time_limit")
         layout.separator()
         layout.operator("object.cp_stylize", icon="BRUSH_DATA")
         layout.operator("object.cp_stylize_estimate", icon="INFO")

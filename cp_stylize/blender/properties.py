@@ -2,22 +2,28 @@
 
 Lengths and times are relative to the object's size: the object is normalised
 so that its longest side is 2 (as in the paper), so a setting looks the same on
-a 2 cm object and on a 20 m one.  :meth:`CPStylizeSettings.to_settings` is the
-one place where the properties become the core's frozen StylizeSettings.
+a 2 cm object and on a 20 m one.  The filter properties, their limits and
+descriptions come from :mod:`cp_stylize.parameters`, the core's one table.
+:meth:`CPStylizeSettings.to_settings` is the one place where the properties
+become the core's frozen StylizeSettings, :meth:`~CPStylizeSettings.output`
+the one place for what to do with the result.
 """
 
 import bpy
 
+from ..parameters import FILTER_PARAMETERS, FILTERS, RUN
+
 #: Grid spacing relative to an object whose longest side is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
-MODE_ITEMS = [
-    ("ced", "Coherence-Enhancing", "Weickert's CED: smooths along the flow of the texture, painterly strokes"),
-    ("eed", "Edge-Enhancing", "Weickert's EED: removes noise, keeps edges sharp"),
-    ("perona_malik", "Perona-Malik", "Edge-stopping smoothing"),
-    ("gaussian", "Gaussian", "Uniform blur on the surface"),
-    ("beltrami", "Beltrami", "Colour Beltrami flow: smooths regions, sharpens colour edges"),
-]
+#: Property names that differ from the core's parameter names.
+PROPERTY_NAMES = {"T": "time"}
+
+
+def _float_property(parameter, **options):
+    return bpy.props.FloatProperty(
+        name=parameter.label, description=parameter.description, default=parameter.default,
+        min=parameter.minimum, max=parameter.maximum, precision=parameter.precision, step=parameter.step, **options)
 
 
 class CPStylizePaletteColour(bpy.types.PropertyGroup):
@@ -29,7 +35,8 @@ class CPStylizePaletteColour(bpy.types.PropertyGroup):
 
 class CPStylizeSettings(bpy.types.PropertyGroup):
     preset_name: bpy.props.StringProperty(name="Preset", description="The preset last loaded", default="")
-    mode: bpy.props.EnumProperty(name="Mode", items=MODE_ITEMS, default="ced")
+    mode: bpy.props.EnumProperty(name="Mode", items=[(f.name, f.label, f.description) for f in FILTERS.values()],
+                                 default="ced")
     quality: bpy.props.EnumProperty(
         name="Quality",
         description="Grid spacing of the computational band, relative to the object's size",
@@ -42,43 +49,6 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         ],
         default="PREVIEW",
     )
-    spacing: bpy.props.FloatProperty(
-        name="Grid Spacing", description="Grid spacing h for the object normalised to a longest side of 2",
-        default=0.008, min=0.002, max=0.1, precision=4, step=0.1,
-    )
-    time: bpy.props.FloatProperty(
-        name="Time", description="Diffusion time T (squared lengths of the object normalised to 2): "
-                                 "how far the filter goes. The blur radius grows like sqrt(2 T)",
-        default=1.1e-4, min=1e-6, max=0.1, precision=6, step=0.001,
-    )
-    sigma: bpy.props.FloatProperty(
-        name="Pre-smoothing", description="Structure tensor pre-smoothing time sigma (noise scale ignored)",
-        default=1e-4, min=0.0, max=0.01, precision=6, step=0.001,
-    )
-    rho: bpy.props.FloatProperty(
-        name="Integration", description="Structure tensor integration time rho (size of the neighbourhood "
-                                        "whose orientation the strokes follow)",
-        default=5e-4, min=0.0, max=0.05, precision=6, step=0.001,
-    )
-    alpha: bpy.props.FloatProperty(
-        name="Alpha", description="CED: smallest diffusivity, across the flow (0 to 1)",
-        default=1e-3, min=0.0, max=1.0, precision=4, step=0.01,
-    )
-    b_rel: bpy.props.FloatProperty(
-        name="Coherence Threshold", description="CED: B relative to the largest coherence of the input; "
-                                                "smaller values draw strokes in weaker structure",
-        default=1e-3, min=0.0, max=1.0, precision=7, step=0.0001,
-    )
-    lambda_rel: bpy.props.FloatProperty(
-        name="Edge Threshold", description="EED, Perona-Malik, Beltrami: edge sensitivity lambda relative to the "
-                                           "input's largest coherence or gradient",
-        default=1e-3, min=1e-6, max=10.0, precision=5, step=0.01,
-    )
-    noise_fraction: bpy.props.FloatProperty(
-        name="Noise", description="Share of the band points replaced by palette colours before the filter "
-                                  "(painterly looks; 0 for none)",
-        default=0.0, min=0.0, max=1.0, subtype="FACTOR",
-    )
     palette: bpy.props.CollectionProperty(type=CPStylizePaletteColour)
     seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise", default=0, min=0)
     image_size: bpy.props.EnumProperty(
@@ -89,19 +59,26 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
                                                                          "(empty: <object>_stylized)")
     target: bpy.props.EnumProperty(
         name="Material",
-        items=[("NEW_MATERIAL", "New Material Copy", "Wire the result into a copy of each material; "
-                                                      "the originals stay as they are"),
-               ("APPLY", "Apply to This Material", "Wire the result into the object's own materials")],
+        items=[("NEW_MATERIAL", "New Material Copy", "Wire the result into a copy of each material, for this "
+                                                      "object only; the originals stay as they are"),
+               ("APPLY", "Apply to This Material", "Wire the result into the object's own materials (every "
+                                                   "object using them changes)")],
         default="NEW_MATERIAL",
     )
     storage: bpy.props.EnumProperty(
         name="Image", items=[("PACK", "Pack", "Pack the image into the .blend file"),
-                             ("SAVE", "Save Next to .blend", "Save a PNG next to the .blend file")],
+                             ("SAVE", "Save Next to .blend", "Save a PNG next to the .blend file (never over an "
+                                                             "existing file)")],
         default="PACK",
     )
     memory_limit: bpy.props.FloatProperty(
-        name="Memory Limit", description="Refuse runs whose estimated memory is above this (GiB)",
+        name="Memory Limit", description="Refuse runs whose estimated memory is above this (GiB); runs that need "
+                                         "more than this computer has are always refused",
         default=8.0, min=0.1, max=1024.0, precision=1,
+    )
+    time_limit: bpy.props.FloatProperty(
+        name="Time Limit", description="Refuse runs whose estimated time is above this (minutes)",
+        default=15.0, min=0.5, max=24 * 60.0, precision=1,
     )
 
     def relative_spacing(self):
@@ -111,39 +88,31 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         """The core's StylizeSettings for these properties."""
         from ..presets import StylizeSettings
 
-        mode = self.mode
-        params = {}
-        if mode in ("eed", "ced"):
-            params.update(sigma=self.sigma, rho=self.rho)
-        if mode in ("perona_malik", "beltrami"):
-            params.update(sigma=self.sigma)
-        if mode == "ced":
-            params.update(alpha=self.alpha, b_rel=self.b_rel)
-        if mode in ("eed", "perona_malik", "beltrami"):
-            params.update(lambda_rel=self.lambda_rel)
+        params = {p.name: getattr(self, p.name) for p in FILTERS[self.mode].parameters}
         return StylizeSettings(
-            mode=mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
+            mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, **params)
 
+    def output(self):
+        """What to do with a run's result, and its limits (the Output panel)."""
+        from .stylize import Output
+
+        return Output(image_name=self.image_name, target=self.target, storage=self.storage,
+                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60)
+
     def from_settings(self, settings):
         """Set the filter properties from StylizeSettings (a loaded preset); output settings stay."""
-        from ..diffusion import DEFAULTS
-
         self.preset_name = settings.name
         self.mode = settings.mode
         self.time = settings.T
         spacing = {v: k for k, v in QUALITY_SPACING.items()}.get(settings.spacing)
         self.quality = spacing or "CUSTOM"
         self.spacing = settings.spacing
-        defaults = DEFAULTS[settings.mode]
-        for key in ("sigma", "rho", "alpha", "b_rel", "lambda_rel"):
-            value = getattr(settings, key)
-            if value is None:
-                value = defaults.get(key)
-            if value is not None:
-                setattr(self, key, value)
+        for name, default in FILTERS[settings.mode].defaults.items():
+            value = getattr(settings, name)
+            setattr(self, name, default if value is None else value)
         self.noise_fraction = settings.noise_fraction
         self.seed = settings.seed
         self.palette.clear()
@@ -152,5 +121,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
             item = self.palette.add()
             item.colour, item.weight = colour, weight
 
+
+for _parameter in list(RUN.values()) + list(FILTER_PARAMETERS.values()):
+    CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _float_property(
+        _parameter, **({"subtype": "FACTOR"} if _parameter.name == "noise_fraction" else {}))
 
 classes = (CPStylizePaletteColour, CPStylizeSettings)

@@ -1,294 +1,288 @@
 """Stylize a Blender object: read its surface colour, run the core, write the result back.
 
-The work is split so that nothing in the file changes until the core has
-finished: :func:`prepare` reads (and may bake a procedural colour into a
-temporary image that it removes again), :func:`run_core` touches no Blender
-data (it may run in a worker thread), and :func:`apply` creates the new image
-and material.  A run that fails or is cancelled before :func:`apply` leaves no
-trace.
+A run has three steps, and only the last one changes the file:
+
+1. :func:`prepare` checks everything that can be checked before the long
+   part (the object, its materials, the save target, the estimated time and
+   memory), reads the mesh and its colours into a :class:`Job` of plain data
+   and, for procedural colours, bakes them with Cycles into a temporary image
+   (:mod:`.bake`, which restores everything it touches).
+2. :func:`run_core` runs the NumPy/SciPy core on the job; it touches no
+   Blender data, so it may run in a worker thread (:class:`BackgroundRun`).
+3. :func:`apply` checks that the object is still there and unchanged, then
+   creates the image (and a UV map if the mesh needs one), saves or packs it
+   and wires it into the materials as one transaction: if anything fails,
+   every change is undone (:mod:`.changes`) and the file is as it was.
+
+What a run writes: by default a copy of each material (``<material>_stylized``,
+which remembers its original, so a second run starts again from the original
+colours and updates the same copy); with ``target="APPLY"`` the object's own
+materials.  Where a mesh shares its data with other objects, the copy is
+assigned to this object only.  A saved image never overwrites a file: it takes
+the first free name (``wood.png``, ``wood.001.png``, ...).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 import threading
 
 import bpy
 import numpy as np
 
-from . import images, meshdata
+from . import bake, images, materials, meshdata
+from .changes import Changes
+from .errors import Cancelled, StylizeError
 
 #: Name of the UV map added to meshes that have no usable UVs of their own.
 ATLAS_UV_NAME = "cp_stylize_atlas"
+#: Custom property marking an image a run made (its value: the object's name).
+MADE_BY = "cp_stylize"
+
+OBJECT_TYPES = {
+    "EMPTY": "an empty", "CAMERA": "a camera", "LIGHT": "a light", "LIGHT_PROBE": "a light probe",
+    "SPEAKER": "a speaker", "ARMATURE": "an armature", "LATTICE": "a lattice", "CURVES": "a hair curves object",
+    "POINTCLOUD": "a point cloud", "VOLUME": "a volume", "GPENCIL": "a Grease Pencil object",
+    "GREASEPENCIL": "a Grease Pencil object",
+}
+#: Objects Blender converts to meshes (Object > Convert > Mesh).
+CONVERTIBLE = {"CURVE": "a curve", "SURFACE": "a surface", "META": "a metaball", "FONT": "a text object"}
+MODE_NAMES = {"EDIT": "Edit Mode", "SCULPT": "Sculpt Mode", "VERTEX_PAINT": "Vertex Paint Mode",
+              "WEIGHT_PAINT": "Weight Paint Mode", "TEXTURE_PAINT": "Texture Paint Mode"}
 
 
-class StylizeError(ValueError):
-    """A problem with the user's data, reported to the user as it is."""
+@dataclasses.dataclass(frozen=True)
+class Output:
+    """What to do with the result, and the limits a run must stay within."""
+
+    image_name: str = ""              # empty: "<object>_stylized"
+    target: str = "NEW_MATERIAL"      # or "APPLY"
+    storage: str = "PACK"             # or "SAVE" (a PNG next to the .blend)
+    memory_limit: float = 8 * 2**30   # bytes
+    time_limit: float = 15 * 60       # seconds
 
 
 @dataclasses.dataclass
 class Job:
-    obj: object
-    vertices: np.ndarray
-    faces: np.ndarray
-    loops: np.ndarray                # (F, 3) loop indices of the triangles' corners
-    material_index: np.ndarray       # (F,)
-    uvs: np.ndarray | None           # (F, 3, 2) the UV map the output is laid out on, or None
+    """Everything a run needs, as plain data: the hand-off between Blender and the core."""
+
+    object_name: str
+    settings: object                  # StylizeSettings
+    output: Output
+    mesh: meshdata.MeshData
+    colours: object                   # pipeline.ColourInput
+    uvs: np.ndarray | None            # (F, 3, 2) the render UV map, for the output atlas
     uv_name: str | None
-    colours: object                  # ColourInput
-    sources: dict                    # material slot index -> description of its colour source
-    settings: object
-    same_topology: bool              # evaluated mesh == original mesh (loops line up)
+    atlas: object                     # an Atlas decided before the run (procedural bake), or None
+    new_atlas: bool                   # a new UV map may be written if the mesh's own are not usable
+    slots: list                       # material slot indices the faces use
+    fingerprint: str
+    slots_state: list
+    estimate: object                  # pipeline.RunEstimate
     result: object = None
 
 
-# -- reading ---------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Applied:
+    image: str                        # the new image's name
+    path: str | None                  # the file it was saved as
+    materials: tuple                  # names of the materials that show it
 
 
-def _principled(material):
-    """The Principled BSDF that feeds the material output's surface, or None."""
-    if material is None or material.node_tree is None:
+# -- checks ----------------------------------------------------------------------------------
+
+
+def check_object(obj):
+    """Raise StylizeError unless ``obj`` is a local mesh object in Object Mode."""
+    if obj is None:
+        raise StylizeError("no active object: select a mesh object")
+    if obj.type in CONVERTIBLE:
+        raise StylizeError(f"{obj.name!r} is {CONVERTIBLE[obj.type]}, not a mesh: convert it first "
+                           "(Object > Convert > Mesh)")
+    if obj.type != "MESH":
+        raise StylizeError(f"{obj.name!r} is {OBJECT_TYPES.get(obj.type, obj.type.lower())}, not a mesh")
+    if obj.library is not None:
+        raise StylizeError(f"{obj.name!r} is linked from the library {obj.library.name!r} and cannot be changed "
+                           "here: make it local first (Object > Relations > Make Local)")
+    if obj.mode != "OBJECT":
+        mode = MODE_NAMES.get(obj.mode, obj.mode.title())
+        raise StylizeError(f"{obj.name!r} is in {mode}: leave {mode} first")
+
+
+def physical_memory():
+    """This computer's memory in bytes, or None if it cannot be told."""
+    try:
+        if sys.platform == "win32":
+            import ctypes
+
+            class Status(ctypes.Structure):
+                _fields_ = [("length", ctypes.c_ulong), ("load", ctypes.c_ulong), ("total", ctypes.c_ulonglong),
+                            ("free", ctypes.c_ulonglong), ("pagefile", ctypes.c_ulonglong),
+                            ("free_pagefile", ctypes.c_ulonglong), ("virtual", ctypes.c_ulonglong),
+                            ("free_virtual", ctypes.c_ulonglong), ("extended", ctypes.c_ulonglong)]
+            status = Status(length=ctypes.sizeof(Status))
+            ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status))
+            return int(status.total)
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
         return None
-    tree = material.node_tree
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    node = None
-    if output is not None and output.inputs["Surface"].is_linked:
-        node = _upstream(output.inputs["Surface"])
-    if node is None or node.type != "BSDF_PRINCIPLED":
-        node = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    return node
 
 
-def _upstream(socket):
-    """The node feeding ``socket``, through reroutes."""
-    while socket.is_linked:
-        node = socket.links[0].from_node
-        if node.type != "REROUTE":
-            return node
-        socket = node.inputs[0]
-    return None
+def duration(seconds):
+    """``'45 s'``, ``'12 min'`` or ``'3 h 20 min'``."""
+    if seconds < 90:
+        return f"{max(seconds, 1):.0f} s"
+    minutes = round(seconds / 60)
+    return f"{minutes} min" if minutes < 60 else f"{minutes // 60} h {minutes % 60} min"
 
 
-def _mapping_transform(node):
-    """2-D affine map (A, b) of a Mapping node of type POINT/TEXTURE on UVs, or raises StylizeError."""
-    if node.vector_type not in ("POINT", "TEXTURE"):
-        raise StylizeError(f"mapping node {node.name!r} of type {node.vector_type} is not supported")
-    if any(s.is_linked for s in node.inputs[1:]):
-        raise StylizeError(f"mapping node {node.name!r} has driven inputs; only constant mappings are supported")
-    loc = np.array(node.inputs["Location"].default_value[:2])
-    angle = node.inputs["Rotation"].default_value[2]
-    scale = np.array(node.inputs["Scale"].default_value[:2])
-    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    A = rot @ np.diag(scale)
-    if node.vector_type == "TEXTURE":
-        A = np.linalg.inv(A)
-        return A, -A @ loc
-    return A, loc
+def check_limits(estimate, output):
+    """Raise StylizeError if a run's estimated memory or time is above the limits or this computer's memory."""
+    need = f"this run needs about {estimate.bytes / 2**30:.1f} GiB (about {estimate.band_points:,} band points)"
+    memory = physical_memory()
+    if memory is not None and estimate.bytes > memory:
+        raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: lower the quality")
+    if estimate.bytes > output.memory_limit:
+        raise StylizeError(f"{need}, above the memory limit of {output.memory_limit / 2**30:.1f} GiB: "
+                           "lower the quality or raise the limit")
+    if estimate.seconds > output.time_limit:
+        raise StylizeError(f"this run would take roughly {duration(estimate.seconds)}, above the time limit of "
+                           f"{duration(output.time_limit)}: lower the quality or the time, or raise the limit")
 
 
-def _image_source(bsdf):
-    """``(image_node, uv_name or None, (A, b) or None)`` if Base Color comes from an image texture."""
-    node = _upstream(bsdf.inputs["Base Color"])
-    if node is None or node.type != "TEX_IMAGE":
+def save_folder():
+    """The folder a saved image goes to (next to the .blend); StylizeError if it cannot be written."""
+    if not bpy.data.filepath:
+        raise StylizeError("save the .blend file first to save the image next to it, or choose Pack")
+    folder = os.path.dirname(os.path.abspath(bpy.data.filepath))
+    if not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+        raise StylizeError(f"cannot save the image next to the .blend file: the folder {folder!r} is not writable; "
+                           "choose Pack, or save the .blend elsewhere")
+    return folder
+
+
+def _target_material(slot, output):
+    """The material a slot's result goes into (None: a new one), after checking it can be changed."""
+    material = slot.material if slot is not None else None
+    if material is None:
         return None
-    transform, uv_name = None, None
-    vec = _upstream(node.inputs["Vector"]) if node.inputs["Vector"].is_linked else None
-    if vec is not None and vec.type == "MAPPING":
-        transform = _mapping_transform(vec)
-        vec = _upstream(vec.inputs["Vector"]) if vec.inputs["Vector"].is_linked else None
-    if vec is not None:
-        if vec.type == "UVMAP":
-            uv_name = vec.uv_map or None
-        elif vec.type == "TEX_COORD" and node.inputs["Vector"].links[0].from_socket.name == "UV":
-            pass
-        elif vec.type != "TEX_COORD":
-            raise StylizeError(f"image texture {node.name!r} uses {vec.bl_label!r} coordinates; only UVs are supported")
-    return node, uv_name, transform
+    if output.target == "APPLY" and material.library is not None:
+        raise StylizeError(f"material {material.name!r} is linked from the library {material.library.name!r} and "
+                           "cannot be changed here: choose New Material Copy, or make it local first")
+    if materials.uses_nodes(material):
+        materials.colour_input(material)   # the result needs a colour input to go into
+    return material
 
 
-def check_image(image):
-    """Raise StylizeError for images cp_stylize cannot read."""
-    if image is None:
-        raise StylizeError("an image texture node has no image")
-    if image.source == "TILED":
-        raise StylizeError(f"image {image.name!r} is tiled (UDIM), which is not supported")
-    if image.source not in ("FILE", "GENERATED"):
-        raise StylizeError(f"image {image.name!r} has source {image.source}; use a still image")
-    if image.source == "FILE" and image.packed_file is None:
-        path = bpy.path.abspath(image.filepath, library=image.library)
-        if not os.path.isfile(path):
-            raise StylizeError(f"image {image.name!r}: its file {path!r} is missing")
-    if image.size[0] == 0 or image.size[1] == 0:
-        raise StylizeError(f"image {image.name!r} has no pixels")
+# -- reading -----------------------------------------------------------------------------------
 
 
-def image_colours(image):
-    """Pixels as sRGB-encoded floats (H, W, 3): float (linear) images are encoded first."""
-    from ..texture import linear_to_srgb
+def _image_texture(source, mesh, faces, material, owner):
+    from ..pipeline import Texture
 
-    pixels = images.image_to_array(image)[..., :3]
-    linear = image.is_float or image.colorspace_settings.name not in ("sRGB", "Non-Color")
-    return linear_to_srgb(pixels).astype(np.float32) if linear else pixels
-
-
-def _corner_uvs(mesh, loops, name=None):
-    layer = mesh.uv_layers.get(name) if name else (mesh.uv_layers.active if len(mesh.uv_layers) else None)
-    if layer is None:
-        return None, None
-    data = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    layer.data.foreach_get("uv", data)
-    return data.reshape(-1, 2)[loops], layer.name
-
-
-def _corner_colours(mesh, loops, tris):
-    """Per-corner colours (F, 3, 3) of the active colour attribute (sRGB-encoded), or None."""
-    attr = mesh.color_attributes.active_color if len(mesh.color_attributes) else None
-    if attr is None:
-        return None
-    n = len(attr.data)
-    data = np.empty(n * 4, dtype=np.float32)
-    attr.data.foreach_get("color_srgb", data)
-    data = data.reshape(-1, 4)[:, :3]
-    if attr.domain == "CORNER":
-        return data[loops]
-    if attr.domain == "POINT":
-        return data[tris]
-    raise StylizeError(f"colour attribute {attr.name!r} on the {attr.domain} domain is not supported")
+    image = source.image
+    images.check_readable(image)
+    linear = image.is_float or image.colorspace_settings.name in materials.LINEAR_SPACES
+    pixels = images.display_colours(image, linear)
+    name = source.uv_name or mesh.render_uv
+    if name is None:
+        raise StylizeError(f"material {material.name!r} reads the image {image.name!r} through UVs, but the mesh "
+                           f"of {owner!r} has no UV map")
+    uvs = mesh.uv_maps[name]
+    if source.transform is not None:
+        A, b = source.transform
+        uvs = uvs @ A.T + b
+    return Texture(pixels, uvs, faces, (source.wrap, source.wrap))
 
 
-def prepare(obj, settings, depsgraph=None):
-    """Read everything a run needs from ``obj``; changes nothing in the file.
-
-    Raises StylizeError for problems with the object or its materials.
-    """
+def _read_colours(obj, mesh, slots):
+    """The ColourInput of the faces, and the output sockets to bake: ``{slot index: socket}``."""
     from ..pipeline import ColourInput
 
-    if obj is None:
-        raise StylizeError("no active object")
-    if obj.type != "MESH":
-        raise StylizeError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh")
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
+    n = len(mesh.triangles)
+    fallback = mesh.colours.get(mesh.render_colour)
+    corner = np.empty((n, 3, 3), dtype=np.float32)
+    corner[:] = materials.DEFAULT_SURFACE if fallback is None else fallback
+    colours = ColourInput(corner_colours=corner)
+    to_bake = {}
+    for index in slots:
+        faces = mesh.material_index == index if len(obj.material_slots) else np.ones(n, dtype=bool)
+        if index == len(obj.material_slots) - 1:
+            faces = mesh.material_index >= index   # Blender renders indices past the last slot with it
+        material = obj.material_slots[index].material if len(obj.material_slots) else None
+        if material is None:
+            continue
+        source = materials.colour_source(material, mesh.uv_maps.keys(), obj.name)
+        if isinstance(source, materials.Flat):
+            corner[faces] = source.colour
+        elif isinstance(source, materials.ImageSource):
+            colours.textures.append(_image_texture(source, mesh, faces, material, obj.name))
+        elif isinstance(source, materials.AttributeSource) and (source.name or mesh.render_colour) in mesh.colours:
+            corner[faces] = mesh.colours[source.name or mesh.render_colour][faces]
+        else:
+            socket = source.socket if isinstance(source, materials.BakeSource) else None
+            to_bake[index] = socket or materials.original_origin(materials.colour_input(material))
+    return colours, to_bake
+
+
+def _bake_atlas(obj, mesh, settings, new_atlas):
+    """The output atlas a procedural bake reads through: the mesh's render UV map if usable, else a new one."""
+    from ..atlas import UnusableUVs, uv_atlas
+    from ..mesh import TriangleMesh
+
+    uvs = mesh.uv_maps.get(mesh.render_uv)
     try:
-        mesh.calc_loop_triangles()
-        n = len(mesh.loop_triangles)
-        if n == 0:
-            raise StylizeError(f"the mesh {obj.name!r} has no faces")
-        tris = np.empty(n * 3, dtype=np.int64)
-        mesh.loop_triangles.foreach_get("vertices", tris)
-        loops = np.empty(n * 3, dtype=np.int64)
-        mesh.loop_triangles.foreach_get("loops", loops)
-        mat_index = np.empty(n, dtype=np.int64)
-        mesh.loop_triangles.foreach_get("material_index", mat_index)
-        tris, loops = tris.reshape(-1, 3), loops.reshape(-1, 3)
-        verts = np.empty(len(mesh.vertices) * 3)
-        mesh.vertices.foreach_get("co", verts)
-        matrix = np.array(obj.matrix_world)
-        verts = verts.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
-        same_topology = (len(mesh.loops) == len(obj.data.loops) and len(mesh.polygons) == len(obj.data.polygons))
-        uvs, uv_name = _corner_uvs(mesh, loops)
-        colours = ColourInput(corner_colours=_corner_colours(mesh, loops, tris))
-        sources = {}
-        slots = obj.material_slots
-        used = np.unique(mat_index)
-        flat = np.zeros((n, 3, 3), dtype=np.float32) if colours.corner_colours is None else None
-        for index in used:
-            faces = mat_index == index
-            material = slots[index].material if index < len(slots) else None
-            bsdf = _principled(material)
-            if bsdf is None:
-                sources[int(index)] = "no material: grey" if material is None else "no Principled BSDF: grey"
-                if flat is not None:
-                    flat[faces] = 0.8
-                continue
-            found = _image_source(bsdf)
-            if found is not None:
-                node, name, transform = found
-                check_image(node.image)
-                tex_uvs, _ = _corner_uvs(mesh, loops, name)
-                if tex_uvs is None:
-                    raise StylizeError(f"material {material.name!r} reads an image through UVs, but the mesh has none")
-                if transform is not None:
-                    A, b = transform
-                    tex_uvs = tex_uvs @ A.T + b
-                colours.textures.append((image_colours(node.image), tex_uvs, faces))
-                sources[int(index)] = f"image {node.image.name!r}"
-            elif bsdf.inputs["Base Color"].is_linked:
-                sources[int(index)] = "procedural"
-            else:
-                if flat is not None:
-                    from ..texture import linear_to_srgb
-
-                    flat[faces] = linear_to_srgb(np.array(bsdf.inputs["Base Color"].default_value[:3]))
-                sources[int(index)] = "base colour" if flat is not None else "colour attribute"
-        if flat is not None:
-            colours.corner_colours = flat
-    finally:
-        evaluated.to_mesh_clear()
-    if uvs is None and not same_topology:
-        raise StylizeError(f"{obj.name!r} has no UV map and modifiers that change its topology; "
-                           "add a UV map or apply the modifiers first")
-    job = Job(obj=obj, vertices=verts, faces=tris, loops=loops, material_index=mat_index, uvs=uvs, uv_name=uv_name,
-              colours=colours, sources=sources, settings=settings, same_topology=same_topology)
-    if "procedural" in sources.values():
-        _bake_procedural(job)
-    return job
+        return uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs, allow_new=new_atlas)
+    except UnusableUVs as err:
+        raise StylizeError(_no_atlas_message(obj, err.problems)) from None
 
 
-def _bake_procedural(job):
-    """Bake procedural Base Colors with Cycles into a temporary image and read it as a texture."""
-    if job.uvs is None:
-        raise StylizeError(f"{job.obj.name!r} has a procedural Base Color but no UV map to bake it into; "
-                           "add a UV map (e.g. Smart UV Project) first")
-    size = 1024
-    temp = bpy.data.images.new("cp_stylize_bake_tmp", size, size, alpha=False, float_buffer=True)
-    added = []
-    scene = bpy.context.scene
-    saved = (scene.render.engine, scene.cycles.device, scene.cycles.samples, scene.render.bake.use_clear)
-    state = _selection_state()
-    try:
-        for index, source in job.sources.items():
-            if source != "procedural":
-                continue
-            tree = job.obj.material_slots[index].material.node_tree
-            node = tree.nodes.new("ShaderNodeTexImage")
-            node.image = temp
-            tree.nodes.active = node
-            added.append((tree, node))
-        scene.render.engine = "CYCLES"
-        scene.cycles.device = "CPU"
-        scene.cycles.samples = 1
-        scene.render.bake.use_clear = True
-        for o in bpy.context.view_layer.objects:
-            o.select_set(False)
-        job.obj.select_set(True)
-        bpy.context.view_layer.objects.active = job.obj
-        bpy.ops.object.bake(type="DIFFUSE", pass_filter={"COLOR"}, margin=16, uv_layer=job.uv_name or "")
-        baked = image_colours(temp)
-    finally:
-        for tree, node in added:
-            tree.nodes.remove(node)
-        bpy.data.images.remove(temp)
-        scene.render.engine, scene.cycles.device, scene.cycles.samples, scene.render.bake.use_clear = saved
-        _restore_selection(state)
-    faces = np.isin(job.material_index, [i for i, s in job.sources.items() if s == "procedural"])
-    job.colours.textures.append((baked, job.uvs, faces))
+def _no_atlas_message(obj, problems):
+    if obj.data.library is not None:
+        why = f"its mesh is linked from the library {obj.data.library.name!r}; make it local first"
+    else:
+        why = "its modifiers change its topology; fix the UV map or apply the modifiers first"
+    return f"{obj.name!r} has no usable UV map for the result ({problems}) and cannot get a new one: {why}"
 
 
-def _selection_state():
-    layer = bpy.context.view_layer
-    return layer.objects.active, [o for o in layer.objects if o.select_get()]
+def prepare(obj, settings, output=Output(), depsgraph=None):
+    """Check and read everything a run on ``obj`` needs; returns a :class:`Job`. Changes nothing in the file.
 
+    Raises StylizeError for problems with the object, its materials, the
+    save target or the limits.
+    """
+    from ..pipeline import estimate
 
-def _restore_selection(state):
-    active, selected = state
-    layer = bpy.context.view_layer
-    for o in layer.objects:
-        o.select_set(o in selected)
-    layer.objects.active = active
+    check_object(obj)
+    if output.storage == "SAVE":
+        save_folder()
+    mesh = meshdata.read(obj, depsgraph)
+    guess = estimate(mesh.vertices, mesh.triangles, settings)
+    check_limits(guess, output)
+    slot_count = len(obj.material_slots)
+    used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
+    slots = [int(i) for i in used]
+    for index in slots:
+        _target_material(obj.material_slots[index] if slot_count else None, output)
+    new_atlas = mesh.same_topology and obj.data.library is None
+    colours, to_bake = _read_colours(obj, mesh, slots)
+    atlas = None
+    if to_bake:
+        from ..pipeline import Texture
+
+        bake.check_bakeable(obj)
+        atlas = _bake_atlas(obj, mesh, settings, new_atlas)
+        own = not atlas.generated
+        baked = bake.bake(obj, to_bake, settings.image_size, uv_name=mesh.render_uv if own else None,
+                          uvs=None if own else atlas.uvs, loops=mesh.loops)
+        faces = np.isin(np.minimum(mesh.material_index, max(slot_count - 1, 0)), list(to_bake))
+        colours.textures.append(Texture(baked, atlas.uvs, faces, ("clamp", "clamp")))
+    return Job(object_name=obj.name, settings=settings, output=output, mesh=mesh, colours=colours,
+               uvs=mesh.uv_maps.get(mesh.render_uv), uv_name=mesh.render_uv, atlas=atlas, new_atlas=new_atlas,
+               slots=slots, fingerprint=meshdata.fingerprint(obj), slots_state=meshdata.slots_state(obj),
+               estimate=guess)
 
 
 # -- running -----------------------------------------------------------------------------
@@ -296,15 +290,17 @@ def _restore_selection(state):
 
 def run_core(job, progress=None, log=None):
     """Run the core on a prepared job (no Blender data is touched: safe in a worker thread)."""
+    from ..atlas import UnusableUVs
     from ..pipeline import stylize
 
-    job.result = stylize(job.vertices, job.faces, job.colours, job.settings, uvs=job.uvs,
-                         progress=progress, log=log)
+    try:
+        job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
+                             atlas=job.atlas, new_atlas=job.new_atlas, progress=progress, log=log)
+    except UnusableUVs as err:
+        raise StylizeError(f"{job.object_name!r} has no usable UV map for the result ({err.problems}) and cannot "
+                           "get a new one: fix the UV map, or apply the modifiers that change its topology "
+                           "(or make its mesh local) first") from None
     return job.result
-
-
-class Cancelled(Exception):
-    """Raised inside a background run when the user cancels it."""
 
 
 class BackgroundRun:
@@ -341,6 +337,10 @@ class BackgroundRun:
         self._cancel.set()
 
     @property
+    def cancelling(self):
+        return self._cancel.is_set()
+
+    @property
     def done(self):
         return self._thread.ident is not None and not self._thread.is_alive()
 
@@ -356,71 +356,114 @@ class BackgroundRun:
 # -- writing ---------------------------------------------------------------------------------
 
 
-def apply(job, *, image_name="", target="NEW_MATERIAL", storage="PACK"):
-    """Create the stylized image and wire it into the object's materials; returns the image."""
-    obj, result = job.obj, job.result
-    if storage == "SAVE" and not bpy.data.filepath:
-        raise StylizeError("save the .blend file first to save the image next to it, or choose Pack")
-    atlas_is_new = getattr(result.atlas, "generated", False) or job.uvs is None
-    uv_name = job.uv_name
-    if atlas_is_new:
-        if not job.same_topology:
-            raise StylizeError(f"{obj.name!r} has no usable UV map and modifiers that change its topology; "
-                               "add a UV map or apply the modifiers first")
-        uv_name = _write_atlas_uvs(obj.data, job.loops, result.atlas.uvs)
-    name = image_name or f"{obj.name}_stylized"
-    image = images.array_to_image(name, result.image)
-    if storage == "SAVE":
-        image.filepath_raw = os.path.join(os.path.dirname(bpy.data.filepath), bpy.path.clean_name(image.name) + ".png")
-        image.file_format = "PNG"
-        image.save()
+def _current_object(job):
+    """The job's object, still there and unchanged since :func:`prepare`, or StylizeError."""
+    name = job.object_name
+    obj = bpy.data.objects.get(name)
+    if obj is None or obj.library is not None or obj.type != "MESH":
+        raise StylizeError(f"{name!r} was deleted or renamed while it was being stylized; nothing was changed")
+    if obj.mode != "OBJECT":
+        mode = MODE_NAMES.get(obj.mode, obj.mode.title())
+        raise StylizeError(f"{name!r} is in {mode}; nothing was changed: leave {mode} and press Stylize again")
+    if meshdata.fingerprint(obj) != job.fingerprint:
+        raise StylizeError(f"the mesh of {name!r} changed while it was being stylized; nothing was changed: "
+                           "press Stylize again")
+    if meshdata.slots_state(obj) != job.slots_state:
+        raise StylizeError(f"the materials of {name!r} changed while it was being stylized; nothing was changed: "
+                           "press Stylize again")
+    return obj
+
+
+def _write_atlas_uvs(mesh, loops, uvs, changes):
+    layer = mesh.uv_layers.get(ATLAS_UV_NAME)
+    if layer is None:
+        layer = changes.new_id(mesh.uv_layers, mesh.uv_layers.new(name=ATLAS_UV_NAME, do_init=False))
     else:
-        image.pack()
-    for index in sorted(job.sources):
-        slot = obj.material_slots[index] if index < len(obj.material_slots) else None
-        material = slot.material if slot is not None else None
-        if material is None:
-            material = bpy.data.materials.new(f"{obj.name}_stylized")
-            if material.node_tree is None:
-                material.use_nodes = True
-            if slot is None:
-                obj.data.materials.append(material)
-            else:
-                slot.material = material
-        elif target == "NEW_MATERIAL":
-            copy = material.copy()
-            copy.name = f"{material.name}_stylized"
-            material.use_fake_user = True  # the original stays in the file
-            slot.material = copy
-            material = copy
-        _wire(material, image, uv_name)
-    return image
-
-
-def _wire(material, image, uv_name):
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    bsdf = _principled(material)
-    if bsdf is None:
-        bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-        out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"), None) or tree.nodes.new("ShaderNodeOutputMaterial")
-        tree.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.name = tex.label = "cp_stylize"
-    tex.image = image
-    tex.location = (bsdf.location.x - 400, bsdf.location.y + 200)
-    if uv_name:
-        uv = tree.nodes.new("ShaderNodeUVMap")
-        uv.uv_map = uv_name
-        uv.location = (tex.location.x - 250, tex.location.y)
-        tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
-    tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
-
-
-def _write_atlas_uvs(mesh, loops, uvs):
-    layer = mesh.uv_layers.get(ATLAS_UV_NAME) or mesh.uv_layers.new(name=ATLAS_UV_NAME, do_init=False)
-    data = np.zeros((len(mesh.loops), 2), dtype=np.float32)
-    data[loops.ravel()] = np.asarray(uvs, dtype=np.float32).reshape(-1, 2)
-    layer.data.foreach_set("uv", data.ravel())
+        old = np.empty(2 * len(layer.data), dtype=np.float32)
+        layer.data.foreach_get("uv", old)
+        changes.record(lambda: layer.data.foreach_set("uv", old))
+    meshdata.write_corner_uvs(layer, loops, uvs)
     return layer.name
+
+
+def _store(image, output, name, changes):
+    """Pack the image, or save it as a PNG next to the .blend under a name no file has."""
+    if output.storage != "SAVE":
+        image.pack()
+        return None
+    path = images.free_path(save_folder(), bpy.path.clean_name(name))
+    try:
+        images.write_file(image, path)
+    except (OSError, RuntimeError) as err:
+        if os.path.exists(path):
+            os.remove(path)
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err).strip()
+        raise StylizeError(f"could not save the image {image.name!r} as {path!r}: {reason}; "
+                           "nothing was changed") from None
+    changes.new_file(path)
+    return path
+
+
+def _material_for(obj, index, output, changes, copies):
+    """The material slot ``index``'s result goes into, creating or copying one as needed.
+
+    ``copies`` maps each original material to its copy made in this run, so
+    that slots sharing a material share its copy.
+    """
+    slot = obj.material_slots[index] if index < len(obj.material_slots) else None
+    material = slot.material if slot is not None else None
+    if material is not None and (output.target == "APPLY" or material.get(materials.ORIGINAL) is not None):
+        return material     # the user's own, or the copy an earlier run made
+    if material is None:
+        new = changes.new_id(bpy.data.materials, bpy.data.materials.new(f"{obj.name}_stylized"))
+        if new.node_tree is None:
+            changes.set(new, "use_nodes", True)
+    elif material in copies:
+        new = copies[material]
+    else:
+        new = copies[material] = changes.new_id(bpy.data.materials, material.copy())
+        new.name = f"{material.name}_stylized"
+        changes.set_item(new, materials.ORIGINAL, material)
+    mesh = obj.data
+    if slot is None:   # no slots: add one to the mesh, empty at mesh level
+        mesh.materials.append(None)
+        changes.record(lambda: mesh.materials.pop(index=len(mesh.materials) - 1))
+        slot = obj.material_slots[len(obj.material_slots) - 1]
+    if mesh.library is not None or mesh.users - mesh.use_fake_user > 1 or slot.link == "OBJECT":
+        changes.set(slot, "link", "OBJECT")   # this object only: the mesh's other users keep their look
+    changes.set(slot, "material", new)
+    return new
+
+
+def apply(job):
+    """Write the result into the file as one transaction; returns :class:`Applied`.
+
+    Raises StylizeError (with nothing changed) if the object was deleted,
+    entered Edit Mode or changed during the run, or if saving fails.
+    """
+    obj = _current_object(job)
+    result, output = job.result, job.output
+    name = output.image_name or f"{obj.name}_stylized"
+    with Changes() as changes:
+        uv_name = job.uv_name
+        if result.atlas.generated:
+            uv_name = _write_atlas_uvs(obj.data, job.mesh.loops, result.atlas.uvs, changes)
+        image = changes.new_id(bpy.data.images, images.array_to_image(name, result.image))
+        image[MADE_BY] = obj.name
+        path = _store(image, output, name, changes)
+        replaced, wired, copies = [], [], {}
+        for index in job.slots:
+            material = _material_for(obj, index, output, changes, copies)
+            if material.name in wired:
+                continue
+            tree_node = material.node_tree.nodes.get(materials.NODE) if material.node_tree else None
+            replaced.append(getattr(tree_node, "image", None))
+            materials.wire(material, image, uv_name, changes)
+            wired.append(material.name)
+    for old in replaced:   # the previous run's image, if nothing else uses it and nobody painted on it
+        if old is not None and old != image and old.get(MADE_BY) and old.users == 0 and not old.is_dirty:
+            old_name = old.name
+            bpy.data.images.remove(old)
+            if old_name == name:
+                image.name = old_name
+    return Applied(image=image.name, path=path, materials=tuple(wired))

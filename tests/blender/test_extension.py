@@ -90,7 +90,7 @@ def registered():
 
 def test_estimate_reports_an_error_for_a_non_mesh_object(registered):
     bpy.ops.object.empty_add()
-    with pytest.raises(RuntimeError, match="must be a mesh"):
+    with pytest.raises(RuntimeError, match="^Error: 'Empty' is an empty, not a mesh\n$"):
         bpy.ops.object.cp_stylize_estimate()
 
 

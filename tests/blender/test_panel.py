@@ -93,3 +93,15 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
         bpy.ops.cp_stylize.preset_remove(name="starry_night")
     assert bpy.ops.cp_stylize.preset_remove(name="my_look") == {"FINISHED"}
     assert not (tmp_path / "my_look.toml").exists()
+
+
+def test_the_properties_take_their_limits_from_the_parameter_table(registered):
+    from cp_stylize.blender.properties import PROPERTY_NAMES
+    from cp_stylize.parameters import FILTER_PARAMETERS, FILTERS, RUN
+
+    rna = registered.bl_rna.properties
+    for parameter in list(RUN.values()) + list(FILTER_PARAMETERS.values()):
+        prop = rna[PROPERTY_NAMES.get(parameter.name, parameter.name)]
+        assert (prop.hard_min, prop.hard_max) == pytest.approx((parameter.minimum, parameter.maximum)), parameter.name
+        assert prop.name == parameter.label and prop.description == parameter.description
+    assert [item.identifier for item in rna["mode"].enum_items] == list(FILTERS)

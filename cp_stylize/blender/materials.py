@@ -1,0 +1,268 @@
+"""Where a material's surface colour comes from, and where the stylized image goes.
+
+The colour a material shows is the colour input of the shader connected to
+its Material Output: the Principled BSDF's Base Color, or the Color of a
+Diffuse, Emission or other shader (or of a node group with such an input).
+:func:`colour_input` finds that socket, or names the node that has none.
+
+:func:`colour_source` says how to read what feeds it, as the renderer does:
+
+- :class:`Flat`: nothing is linked, the socket's own colour;
+- :class:`ImageSource`: an Image Texture with flat projection, read through a
+  UV map (the render UV map unless a UV Map node names one), optionally
+  through a constant Mapping node, with its extension (repeat, extend,
+  mirror, clip) and colour space;
+- :class:`AttributeSource`: a Color Attribute node;
+- :class:`BakeSource`: anything else (procedural textures, other coordinates,
+  colour adjustments, other colour spaces), baked with Cycles.
+
+The result goes into an Image Texture node named :data:`NODE` linked to that
+same socket (:func:`wire`); the node remembers what fed the socket before, so
+a second run reads the original colours again, not its own result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import bpy
+import numpy as np
+
+from .errors import StylizeError
+
+#: Name of the Image Texture node that holds the stylized image, and of its UV Map node.
+NODE = "cp_stylize"
+UV_NODE = "cp_stylize UV"
+#: Custom property of :data:`NODE`: ``"<node name>/<output identifier>"`` of what fed the colour
+#: input before the stylized image did ("" if nothing was linked).
+SOURCE = "cp_stylize_source"
+#: Custom property of a material copy: the material it was copied from (keeps it alive).
+ORIGINAL = "cp_stylize_original"
+
+#: Image colour spaces whose pixels cp_stylize reads itself: byte pixels as stored are sRGB-encoded
+#: for "sRGB" and linear for the others (float images are linear whatever their colour space).
+SRGB_SPACES = ("sRGB",)
+LINEAR_SPACES = ("Non-Color", "Linear Rec.709", "Linear", "Raw", "Linear CIE-XYZ E")
+
+#: Blender's image extensions as cp_stylize.texture wraps.
+WRAPS = {"REPEAT": "repeat", "EXTEND": "clamp", "MIRROR": "mirror", "CLIP": "clip"}
+
+#: The colour Blender renders a face without a material with (sRGB-encoded grey 0.8).
+DEFAULT_SURFACE = (0.906, 0.906, 0.906)
+
+
+@dataclasses.dataclass(frozen=True)
+class Flat:
+    colour: tuple            # sRGB-encoded (r, g, b)
+
+
+@dataclasses.dataclass(frozen=True)
+class ImageSource:
+    node: object             # the Image Texture node
+    image: object
+    uv_name: str | None      # None: the render UV map
+    transform: tuple | None  # (A (2, 2), b (2,)) applied to the UVs
+    wrap: str
+
+
+@dataclasses.dataclass(frozen=True)
+class AttributeSource:
+    name: str | None         # None: the mesh's render colour attribute
+
+
+@dataclasses.dataclass(frozen=True)
+class BakeSource:
+    socket: object           # the output socket whose colour Cycles bakes
+
+
+def _upstream(socket):
+    """The output socket feeding input ``socket``, through reroutes (None if nothing is linked)."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if not link.is_valid or link.is_muted:
+            return None
+        if link.from_node.type != "REROUTE":
+            return link.from_socket
+        socket = link.from_node.inputs[0]
+    return None
+
+
+def material_output(tree):
+    """The Material Output node Cycles renders (None if there is none)."""
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.target in ("ALL", "CYCLES")]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def uses_nodes(material):
+    """Whether the renderer shades ``material`` with its nodes (always, from Blender 5.0 on)."""
+    return material.node_tree is not None and (bpy.app.version >= (5, 0, 0) or material.use_nodes)
+
+
+def colour_input(material):
+    """The input socket that sets ``material``'s surface colour; StylizeError naming what is wrong."""
+    tree = material.node_tree
+    out = material_output(tree)
+    if out is None:
+        raise StylizeError(f"material {material.name!r} has no Material Output node")
+    surface = _upstream(out.inputs["Surface"])
+    if surface is None:
+        raise StylizeError(f"material {material.name!r}: nothing is connected to its Material Output's Surface")
+    shader = surface.node
+    for name in ("Base Color", "Color"):
+        socket = shader.inputs.get(name)
+        if socket is not None and socket.type == "RGBA" and socket.enabled:
+            return socket
+    raise StylizeError(f"material {material.name!r}: its surface comes from the node {shader.name!r} "
+                       f"({shader.bl_label}), which has no colour input; cp_stylize reads and writes the Base Color "
+                       "or Color input of the shader connected to the Material Output")
+
+
+def _remembered(node):
+    """What fed the colour input before :data:`NODE` did: ``(True, socket or None)``, or ``(False, None)``."""
+    if SOURCE not in node:
+        return False, None
+    ref = node[SOURCE]
+    if not ref:
+        return True, None
+    name, _, identifier = ref.rpartition("/")
+    source = node.id_data.nodes.get(name)
+    if source is None:
+        return False, None
+    socket = next((s for s in source.outputs if s.identifier == identifier), None)
+    return socket is not None, socket
+
+
+def original_origin(socket):
+    """The output socket whose colour ``socket`` shows, before any stylized image was wired in (None: unlinked)."""
+    origin = _upstream(socket)
+    if origin is not None and origin.node.name == NODE and origin.node.type == "TEX_IMAGE":
+        found, remembered = _remembered(origin.node)
+        if found:
+            return remembered
+    return origin
+
+
+def _linear_to_srgb(rgb):
+    from ..texture import linear_to_srgb
+
+    return tuple(float(c) for c in linear_to_srgb(np.clip(np.asarray(rgb[:3], dtype=np.float64), 0.0, None)))
+
+
+def _mapping_transform(node, material):
+    """2-D affine map ``(A, b)`` a Mapping node applies to UVs (z = 0), exactly as the renderer does, or None."""
+    from mathutils import Euler
+
+    kind = node.vector_type
+    if kind not in ("POINT", "TEXTURE", "VECTOR"):
+        return None
+    if any(s.is_linked for s in node.inputs[1:] if s.enabled):
+        return None
+    scale = np.array(node.inputs["Scale"].default_value[:], dtype=np.float64)
+    rotation = np.array(Euler(node.inputs["Rotation"].default_value[:], "XYZ").to_matrix(), dtype=np.float64)
+    location = np.array(node.inputs["Location"].default_value[:], dtype=np.float64) if kind != "VECTOR" \
+        else np.zeros(3)
+    if kind == "TEXTURE":  # safe_divide(R^T (x - L), S), as Cycles and EEVEE compute it
+        if np.any(scale[:2] == 0):
+            raise StylizeError(f"the Mapping node {node.name!r} in material {material.name!r} has a zero scale, "
+                               "which maps the whole texture to one line or point")
+        inv = np.diag(1.0 / scale) @ rotation.T
+        return inv[:2, :2], -(inv @ location)[:2]
+    full = rotation @ np.diag(scale)   # R (S x) + L
+    return full[:2, :2], location[:2]
+
+
+def _image_source(output, material, uv_names, owner):
+    """An :class:`ImageSource` for an Image Texture's Color output, or None where only a bake reads it."""
+    node = output.node
+    if output.identifier != "Color" or node.projection != "FLAT" or node.image is None:
+        return None
+    image = node.image
+    if image.source in ("FILE", "GENERATED") and not (image.is_float or image.colorspace_settings.name
+                                                      in SRGB_SPACES + LINEAR_SPACES):
+        return None
+    transform, uv_name = None, None
+    vector = _upstream(node.inputs["Vector"])
+    if vector is not None and vector.node.type == "MAPPING":
+        transform = _mapping_transform(vector.node, material)
+        if transform is None:
+            return None
+        vector = _upstream(vector.node.inputs["Vector"])
+    if vector is not None:
+        kind = vector.node.type
+        if kind == "UVMAP" and not getattr(vector.node, "from_instancer", False):
+            uv_name = vector.node.uv_map or None
+            if uv_name is not None and uv_name not in uv_names:
+                raise StylizeError(f"the UV Map node {vector.node.name!r} in material {material.name!r} names the "
+                                   f"UV map {uv_name!r}, which the mesh of {owner!r} does not have")
+        elif not (kind == "TEX_COORD" and vector.identifier == "UV"
+                  and not getattr(vector.node, "from_instancer", False)):
+            return None
+    return ImageSource(node=node, image=image, uv_name=uv_name, transform=transform,
+                       wrap=WRAPS.get(node.extension, "repeat"))
+
+
+def colour_source(material, uv_names, owner):
+    """How to read ``material``'s surface colour: Flat, ImageSource, AttributeSource or BakeSource.
+
+    ``uv_names`` are the UV maps of the mesh it colours, ``owner`` the name of
+    that mesh's object (for messages).
+    """
+    if not uses_nodes(material):
+        return Flat(_linear_to_srgb(material.diffuse_color))
+    socket = colour_input(material)
+    origin = original_origin(socket)
+    if origin is None:
+        return Flat(_linear_to_srgb(socket.default_value))
+    node = origin.node
+    if node.type == "TEX_IMAGE":
+        found = _image_source(origin, material, uv_names, owner)
+        if found is not None:
+            return found
+        return BakeSource(origin)
+    if node.type == "VERTEX_COLOR" and origin.identifier == "Color":
+        return AttributeSource(node.layer_name or None)
+    return BakeSource(origin)
+
+
+# -- writing -----------------------------------------------------------------------------------------
+
+
+def wire(material, image, uv_name, changes):
+    """Show ``image`` (through the UV map ``uv_name``) as ``material``'s surface colour.
+
+    The image goes into the Image Texture node :data:`NODE`, linked to the
+    shader's colour input; a node from an earlier run is reused.  Nothing
+    else in the material changes: the shader, and the nodes that fed the
+    colour before (now unlinked, remembered by the node).  Every change is
+    recorded in ``changes`` so that it can be undone.
+    """
+    if not uses_nodes(material):
+        changes.set(material, "use_nodes", True)
+    tree = material.node_tree
+    socket = colour_input(material)
+    current = _upstream(socket)
+    ours = current is not None and current.node.name == NODE and current.node.type == "TEX_IMAGE"
+    shader = socket.node
+    if ours:
+        tex = current.node
+    else:
+        tex = changes.new_node(tree, "ShaderNodeTexImage")
+        tex.name = tex.label = NODE
+        tex.location = (shader.location.x - 400, shader.location.y + 200)
+        tex[SOURCE] = f"{current.node.name}/{current.identifier}" if current is not None else ""
+        changes.link(tree, tex.outputs["Color"], socket)
+    changes.set(tex, "image", image)
+    uv = tree.nodes.get(UV_NODE)
+    uv_linked = tex.inputs["Vector"].is_linked and tex.inputs["Vector"].links[0].from_node == uv
+    if uv_name:
+        if uv is None or uv.type != "UVMAP":
+            uv = changes.new_node(tree, "ShaderNodeUVMap")
+            uv.name = uv.label = UV_NODE
+            uv.location = (tex.location.x - 250, tex.location.y)
+            uv_linked = False
+        changes.set(uv, "uv_map", uv_name)
+        if not uv_linked:
+            changes.link(tree, uv.outputs["UV"], tex.inputs["Vector"])
+    elif uv_linked:
+        changes.unlink(tree, tex.inputs["Vector"].links[0])
+    return tex

@@ -1,0 +1,648 @@
+"""The Stylize operator never touches what the user did not ask it to change.
+
+One test a case: files next to the .blend, the user's images during a
+procedural bake, failures after the core has run, what the renderer reads
+(UV maps, texture coordinates, shaders, colour spaces, image extension), the
+scope of a run (loose vertices, linked duplicates, library data, a second
+run), the messages, and the limits.  Each test compares snapshots of the
+whole file (``blender_state``) and the exact message the user sees.
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
+
+from blender_state import assert_unchanged, differences, files, pixel_hash, snapshot  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+RED, BLUE, GREEN = (0.9, 0.1, 0.1), (0.1, 0.2, 0.9), (0.1, 0.8, 0.2)
+
+
+@pytest.fixture
+def addon():
+    import cp_stylize.blender as addon
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon.register()
+    settings = bpy.context.scene.cp_stylize
+    settings.quality = "PREVIEW"
+    settings.image_size = "512"
+    settings.mode, settings.time = "gaussian", 1e-6
+    yield settings
+    addon.unregister()
+
+
+# -- scene building ------------------------------------------------------------------------------
+
+
+def halves(name, left=RED, right=BLUE, *, size=64, axis="u", colorspace="sRGB", float_buffer=False, pack=True):
+    """An image whose left (u < 1/2) or bottom (v < 1/2) half is ``left`` and the rest ``right``."""
+    image = bpy.data.images.new(name, size, size, float_buffer=float_buffer)
+    if image.colorspace_settings.name != colorspace:
+        image.colorspace_settings.name = colorspace  # before the pixels: changing it reloads the image
+    rgba = np.ones((size, size, 4), dtype=np.float32)
+    first = (np.arange(size) < size // 2)
+    mask = first[None, :] if axis == "u" else first[:, None]
+    rgba[..., :3] = np.where(mask[..., None], left, right)
+    image.pixels.foreach_set(rgba.ravel())
+    if pack:
+        image.pack()
+    return image
+
+
+def image_material(name, image, *, shader="ShaderNodeBsdfPrincipled"):
+    """A material whose surface shader takes its colour from an Image Texture of ``image``."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    surface = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if shader != "ShaderNodeBsdfPrincipled":
+        tree.nodes.remove(surface)
+        surface = tree.nodes.new(shader)
+        tree.links.new(surface.outputs[0], out.inputs["Surface"])
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    colour = surface.inputs["Base Color"] if "Base Color" in surface.inputs else surface.inputs["Color"]
+    tree.links.new(tex.outputs["Color"], colour)
+    tree.nodes.active = tex
+    return material
+
+
+def procedural_material(name="Checker"):
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 6.0
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    return material
+
+
+def sphere(name="Ball", material=None, *, segments=32, rings=16):
+    from cp_stylize.blender import scene
+
+    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=segments, rings=rings)
+    return obj
+
+
+def remove_uvs(obj):
+    while obj.data.uv_layers:
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+
+
+def texture_node(material):
+    return next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+
+
+def stylized_image(obj, slot=0):
+    return obj.material_slots[slot].material.node_tree.nodes["cp_stylize"].image
+
+
+def pixels(image):
+    w, h = image.size
+    buf = np.empty(w * h * 4, dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    return buf.reshape(h, w, 4)[..., :3]
+
+
+def texel_points(obj, image, uv_name=None):
+    """3-D points (M, 3, object space) and colours (M, 3) of the texels of ``image`` that ``obj``'s UV map covers."""
+    from cp_stylize import TriangleMesh
+    from cp_stylize.atlas import uv_atlas
+
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    n = len(mesh.loop_triangles)
+    tris, loops = np.empty(3 * n, np.int64), np.empty(3 * n, np.int64)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    verts = np.empty(3 * len(mesh.vertices))
+    mesh.vertices.foreach_get("co", verts)
+    verts, tris, loops = verts.reshape(-1, 3), tris.reshape(-1, 3), loops.reshape(-1, 3)
+    layer = mesh.uv_layers[uv_name] if uv_name else next(l for l in mesh.uv_layers if l.active_render)
+    uv = np.empty(2 * len(mesh.loops))
+    layer.data.foreach_get("uv", uv)
+    tm = TriangleMesh(verts, tris)
+    atlas = uv_atlas(tm, image.size[0], uv.reshape(-1, 2)[loops])
+    points = np.einsum("mk,mkj->mj", atlas.bary, verts[tris[atlas.face]])
+    return points, pixels(image).reshape(-1, 3)[atlas.texels]
+
+
+def near(colours, colour, tol=0.12):
+    return np.linalg.norm(colours - np.asarray(colour), axis=1) < tol
+
+
+def run_error(**kwargs):
+    """The exact message of a refused run (the operator raises it as RuntimeError in scripts)."""
+    with pytest.raises(RuntimeError) as info:
+        bpy.ops.object.cp_stylize(**kwargs)
+    text = str(info.value)
+    assert text.startswith("Error: ") and text.endswith("\n"), repr(text)
+    return text[len("Error: "):-1]
+
+
+def save_blend(folder, name="scene.blend"):
+    bpy.ops.wm.save_as_mainfile(filepath=str(folder / name))
+
+
+# -- 1. files next to the .blend -----------------------------------------------------------------
+
+
+def test_saving_next_to_the_blend_never_overwrites_a_file(addon, tmp_path, capfd):
+    sphere(material=image_material("Painted", halves("source")))
+    (tmp_path / "wood.png").write_bytes(b"the user's own wood texture")
+    save_blend(tmp_path)
+    before = files(tmp_path)
+    addon.storage, addon.image_name = "SAVE", "wood"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = files(tmp_path)
+    assert {k: v for k, v in after.items() if k in before} == before  # every file there stays byte-identical
+    assert set(after) - set(before) == {"wood.001.png"}
+    image = stylized_image(bpy.data.objects["Ball"])
+    assert image.filepath == "//wood.001.png" and image.packed_file is None
+    assert "wood.001.png" in capfd.readouterr().out
+
+
+def test_a_second_blend_in_the_same_folder_keeps_its_image(addon, tmp_path):
+    sphere(material=image_material("Painted", halves("source")))
+    save_blend(tmp_path, "first.blend")
+    addon.storage = "SAVE"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = files(tmp_path)["Ball_stylized.png"]
+    # another file in the same folder, with an object of the same name
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.context.scene.cp_stylize.quality, bpy.context.scene.cp_stylize.image_size = "PREVIEW", "512"
+    bpy.context.scene.cp_stylize.mode, bpy.context.scene.cp_stylize.time = "gaussian", 1e-6
+    bpy.context.scene.cp_stylize.storage = "SAVE"
+    sphere(material=image_material("Painted", halves("source", GREEN, RED)))
+    save_blend(tmp_path, "second.blend")
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = files(tmp_path)
+    assert after["Ball_stylized.png"] == first
+    assert stylized_image(bpy.data.objects["Ball"]).filepath == "//Ball_stylized.001.png"
+    assert "Ball_stylized.001.png" in after
+
+
+# -- 2. the procedural bake touches only its own image -------------------------------------------
+
+
+def test_the_procedural_bake_leaves_the_users_images_alone(addon):
+    source = halves("source")
+    obj = sphere(material=image_material("Painted", source))
+    obj.data.materials.append(procedural_material())
+    centres = np.array([p.center.z for p in obj.data.polygons])
+    obj.data.polygons.foreach_set("material_index", (centres < 0).astype(np.int32))
+    source_hash = pixel_hash(source)
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert pixel_hash(source) == source_hash and not source.is_dirty
+    after = snapshot()
+    assert after["images"]["source"] == before["images"]["source"]
+    assert set(after["images"]) - set(before["images"]) == {"Ball_stylized"}
+    assert after["materials"]["Painted"] == before["materials"]["Painted"]
+    assert after["materials"]["Checker"] == before["materials"]["Checker"]
+    assert after["render"] == before["render"]
+    # the checker's two tones reach the stylized image in the lower half
+    points, colours = texel_points(obj, stylized_image(obj))
+    grey = colours[points[:, 2] < -0.2].mean(axis=1)
+    assert grey.max() - grey.min() > 0.3
+
+
+# -- 3. a failure after the core has run leaves no trace -----------------------------------------
+
+
+def _bare_sphere_with_material():
+    """A sphere without UVs (the run adds an atlas UV map) whose material has a flat colour."""
+    material = bpy.data.materials.new("Flat")
+    if material.node_tree is None:
+        material.use_nodes = True
+    obj = sphere(material=material)
+    remove_uvs(obj)
+    return obj
+
+
+def test_a_failing_save_restores_everything(addon, tmp_path, monkeypatch):
+    from cp_stylize.blender import images
+
+    _bare_sphere_with_material()
+    save_blend(tmp_path)
+    addon.storage = "SAVE"
+
+    def fail(image, path):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(images, "write_file", fail)
+    before = snapshot(tmp_path)
+    message = run_error()
+    assert message == (f"could not save the image 'Ball_stylized' as {str(tmp_path / 'Ball_stylized.png')!r}: "
+                       "No space left on device; nothing was changed")
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_an_unwritable_folder_is_refused_before_the_run(addon, tmp_path, monkeypatch):
+    _bare_sphere_with_material()
+    save_blend(tmp_path)
+    addon.storage = "SAVE"
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if str(p) == str(tmp_path) else real(p, mode, **kw))
+    from cp_stylize.blender import stylize
+
+    monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
+    before = snapshot(tmp_path)
+    assert run_error() == (f"cannot save the image next to the .blend file: the folder {str(tmp_path)!r} "
+                           "is not writable; choose Pack, or save the .blend elsewhere")
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_an_unexpected_error_is_one_message_and_changes_nothing(addon, monkeypatch):
+    from cp_stylize import pipeline
+
+    _bare_sphere_with_material()
+
+    def broken(*args, **kwargs):
+        return 1 / 0
+
+    monkeypatch.setattr(pipeline, "stylize", broken)
+    before = snapshot()
+    assert run_error() == ("cp_stylize failed unexpectedly (ZeroDivisionError: division by zero); "
+                           "nothing was changed. The system console has the details")
+    assert_unchanged(before, snapshot())
+
+
+@pytest.mark.parametrize("change, message", [
+    ("edit the mesh", "the mesh of 'Ball' changed while it was being stylized; nothing was changed: "
+                      "press Stylize again"),
+    ("enter Edit Mode", "'Ball' is in Edit Mode; nothing was changed: leave Edit Mode and press Stylize again"),
+    ("delete the object", "'Ball' was deleted or renamed while it was being stylized; nothing was changed"),
+    ("swap its material", "the materials of 'Ball' changed while it was being stylized; nothing was changed: "
+                          "press Stylize again"),
+])
+def test_changes_during_a_run_are_detected_before_anything_is_written(addon, change, message):
+    from cp_stylize.blender import stylize
+
+    obj = _bare_sphere_with_material()
+    job = stylize.prepare(obj, addon.to_settings(), addon.output())
+    stylize.run_core(job)
+    if change == "edit the mesh":
+        obj.data.vertices[0].co.x += 0.1
+    elif change == "enter Edit Mode":
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.object.mode_set(mode="EDIT")
+    elif change == "delete the object":
+        bpy.data.objects.remove(obj)
+    else:
+        obj.material_slots[0].material = bpy.data.materials.new("Other")
+    before = snapshot()
+    with pytest.raises(stylize.StylizeError) as info:
+        stylize.apply(job)
+    assert str(info.value) == message
+    assert_unchanged(before, snapshot())
+
+
+# -- 4-7. read what the renderer shows -----------------------------------------------------------
+
+
+def test_an_image_without_a_uv_node_is_read_through_the_render_uv_map(addon):
+    obj = sphere(material=image_material("Painted", halves("source")))
+    obj.data.uv_layers.new(name="Mirrored")
+    render, mirrored = obj.data.uv_layers["UVMap"], obj.data.uv_layers["Mirrored"]
+    uv = np.empty(2 * len(obj.data.loops))
+    render.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    uv[:, 0] = 1.0 - uv[:, 0]
+    mirrored.data.foreach_set("uv", uv.ravel())
+    obj.data.uv_layers.active = mirrored  # selected for editing; the render map stays the first
+    assert render.active_render and not mirrored.active_render
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    image = stylized_image(obj)
+    points, colours = texel_points(obj, image, uv_name=render.name)
+    # the render map puts u < 1/2 (red) on one side of the sphere: the result is red there
+    u_red = near(colours, RED).mean()
+    assert u_red > 0.4 and near(colours, BLUE).mean() > 0.4
+    cols = np.arange(image.size[0])
+    red_cols = pixels(image)[:, cols < image.size[0] // 2].reshape(-1, 3)
+    covered = red_cols.max(axis=1) > 0.05
+    assert near(red_cols[covered], RED).mean() > 0.9
+
+
+def test_generated_coordinates_are_read_as_the_renderer_shows_them(addon):
+    material = image_material("Painted", halves("source", RED, BLUE, axis="v"))
+    tree = material.node_tree
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coords.outputs["Generated"], texture_node(material).inputs["Vector"])
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    points, colours = texel_points(obj, stylized_image(obj))
+    # Generated coordinates: v is the object's y across its bounding box; read as UVs it would be z
+    south, north = points[:, 1] < -0.25, points[:, 1] > 0.25
+    assert near(colours[south], RED).mean() > 0.9 and near(colours[north], BLUE).mean() > 0.9
+
+
+def test_an_emission_shader_is_read_and_kept(addon):
+    material = image_material("Glow", halves("source"), shader="ShaderNodeEmission")
+    obj = sphere(material=material)
+    addon.target = "APPLY"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    tree = material.node_tree
+    emission = next(n for n in tree.nodes if n.type == "EMISSION")
+    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    assert out.inputs["Surface"].links[0].from_node == emission  # the user's shader stays
+    assert emission.inputs["Color"].links[0].from_node.name == "cp_stylize"
+    points, colours = texel_points(obj, stylized_image(obj))
+    assert near(colours, RED).mean() > 0.4 and near(colours, BLUE).mean() > 0.4  # not flat grey
+
+
+def test_a_shader_without_a_colour_input_is_refused_by_name(addon):
+    material = bpy.data.materials.new("Mixed")
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.name = "Blend"
+    tree.links.new(bsdf.outputs[0], mix.inputs[1])
+    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+    sphere(material=material)
+    before = snapshot()
+    assert run_error() == ("material 'Mixed': its surface comes from the node 'Blend' (Mix Shader), which has no "
+                           "colour input; cp_stylize reads and writes the Base Color or Color input of the shader "
+                           "connected to the Material Output")
+    assert_unchanged(before, snapshot())
+
+
+def test_a_node_group_shader_is_refused_by_name(addon):
+    group = bpy.data.node_groups.new("Toon Group", "ShaderNodeTree")
+    if hasattr(group, "interface"):
+        group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    else:
+        group.outputs.new("NodeSocketShader", "Shader")
+    material = bpy.data.materials.new("Grouped")
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    node.name = "Toon"
+    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    tree.links.new(node.outputs[0], out.inputs["Surface"])
+    sphere(material=material)
+    before = snapshot()
+    assert run_error() == ("material 'Grouped': its surface comes from the node 'Toon' (Group), which has no "
+                           "colour input; cp_stylize reads and writes the Base Color or Color input of the shader "
+                           "connected to the Material Output")
+    assert_unchanged(before, snapshot())
+
+
+def test_a_non_color_image_is_read_as_linear_data(addon):
+    from cp_stylize.blender import stylize
+    from cp_stylize.texture import linear_to_srgb
+
+    image = halves("data", (0.5, 0.5, 0.5), (0.5, 0.5, 0.5), colorspace="Non-Color")
+    obj = sphere(material=image_material("Data", image))
+    job = stylize.prepare(obj, addon.to_settings(), addon.output())
+    (pixels_read, _, _, _), = job.colours.textures
+    # Non-Color data is used by the shader as it is, i.e. as linear values: encoded for display
+    np.testing.assert_allclose(pixels_read[..., :3], linear_to_srgb(0.5), atol=2e-3)
+
+
+def test_a_clipped_image_is_black_outside_its_unit_square(addon):
+    material = image_material("Clipped", halves("source", GREEN, GREEN))
+    tree = material.node_tree
+    tex = texture_node(material)
+    tex.extension = "CLIP"
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (2.0, 1.0, 1.0)
+    tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    image = stylized_image(obj)
+    out = pixels(image)
+    n = image.size[0]
+    rows = slice(n // 8, -n // 8)
+    # u < 1/2 maps into the image (green); u > 1/2 maps beyond it, where CLIP is black (REPEAT would be green)
+    left, right = out[rows, n // 16:n // 2 - n // 16].reshape(-1, 3), out[rows, n // 2 + n // 16:-n // 16].reshape(-1, 3)
+    assert near(left, GREEN).mean() > 0.9 and (right.max(axis=1) < 0.05).mean() > 0.9
+
+
+# -- 8-11. scope -----------------------------------------------------------------------------------
+
+
+def test_a_loose_vertex_far_away_does_not_change_the_grid(addon):
+    from cp_stylize.blender.operators import estimate
+
+    obj = sphere(material=image_material("Painted", halves("source")))
+    h, n, _, _ = estimate(obj, addon.to_settings())
+    obj.data.vertices.add(1)
+    obj.data.vertices[-1].co = (50.0, 0.0, 0.0)
+    obj.data.update()
+    h_loose, n_loose, _, _ = estimate(obj, addon.to_settings())
+    assert h == pytest.approx(0.016) and h_loose == pytest.approx(h) and n_loose == n
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    points, colours = texel_points(obj, stylized_image(obj))
+    assert near(colours, RED).mean() > 0.4 and near(colours, BLUE).mean() > 0.4
+
+
+def test_a_linked_duplicate_keeps_its_look(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    twin = obj.copy()  # shares the mesh, and with it the material slots
+    twin.name = "Twin"
+    bpy.context.collection.objects.link(twin)
+    assert twin.data is obj.data
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert twin.material_slots[0].material is material
+    assert obj.material_slots[0].material.name == "Painted_stylized"
+    assert obj.data.materials[0] is material  # the mesh's own slot is untouched
+
+
+def _library(tmp_path):
+    """A library .blend with a textured sphere 'Linked' and a material 'Libmat'; returns its path."""
+    sphere("Linked", material=image_material("Libmat", halves("libsource")))
+    path = str(tmp_path / "lib.blend")
+    bpy.data.libraries.write(path, {bpy.data.objects["Linked"], bpy.data.materials["Libmat"]})
+    bpy.data.objects.remove(bpy.data.objects["Linked"])
+    for block in (bpy.data.materials["Libmat"], bpy.data.images["libsource"]):
+        block.user_clear()
+    bpy.data.materials.remove(bpy.data.materials["Libmat"])
+    bpy.data.images.remove(bpy.data.images["libsource"])
+    bpy.data.meshes.remove(bpy.data.meshes["Sphere"]) if "Sphere" in bpy.data.meshes else None
+    return path
+
+
+def test_a_library_linked_object_is_refused(addon, tmp_path):
+    path = _library(tmp_path)
+    with bpy.data.libraries.load(path, link=True) as (source, target):
+        target.objects = ["Linked"]
+    obj = target.objects[0]
+    bpy.context.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    before = snapshot(tmp_path)
+    assert run_error() == ("'Linked' is linked from the library 'lib.blend' and cannot be changed here: "
+                           "make it local first (Object > Relations > Make Local)")
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_applying_to_a_library_material_is_refused(addon, tmp_path):
+    path = _library(tmp_path)
+    with bpy.data.libraries.load(path, link=True) as (source, target):
+        target.materials = ["Libmat"]
+    sphere(material=target.materials[0])
+    addon.target = "APPLY"
+    before = snapshot(tmp_path)
+    assert run_error() == ("material 'Libmat' is linked from the library 'lib.blend' and cannot be changed here: "
+                           "choose New Material Copy, or make it local first")
+    assert_unchanged(before, snapshot(tmp_path))
+    addon.target = "NEW_MATERIAL"  # a copy of it is fine
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert bpy.data.objects["Ball"].material_slots[0].material.name == "Libmat_stylized"
+
+
+def test_a_second_run_starts_again_from_the_original(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copy = obj.material_slots[0].material
+    first = pixels(stylized_image(obj)).copy()
+    assert copy.name == "Painted_stylized" and copy["cp_stylize_original"] == material
+    assert not material.use_fake_user and material.users >= 1  # the copy keeps the original alive
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert obj.material_slots[0].material == copy  # the same copy, with its new image
+    assert sorted(after["materials"]) == ["Painted", "Painted_stylized"]
+    assert after["materials"]["Painted"] == before["materials"]["Painted"]
+    # the second run read the original colours, not the first result: the same settings give the same image
+    np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
+
+
+def test_a_second_apply_reads_the_original_colours(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    addon.target = "APPLY"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = pixels(stylized_image(obj)).copy()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert sorted(n.name for n in material.node_tree.nodes if n.name.startswith("cp_stylize")) == [
+        "cp_stylize", "cp_stylize UV"]
+    np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
+
+
+# -- 12. messages that name the real cause ---------------------------------------------------------
+
+
+def _message_case(name):
+    if name == "NaN vertex":
+        obj = sphere(material=image_material("Painted", halves("source")))
+        obj.data.vertices[3].co = (float("nan"), 0.0, 0.0)
+    elif name == "NaN pixels":
+        image = halves("source", float_buffer=True, pack=False)
+        px = np.ones((64, 64, 4), np.float32)
+        px[0, :3, 0] = np.nan
+        image.pixels.foreach_set(px.ravel())
+        sphere(material=image_material("Painted", image))
+    elif name == "singular mapping":
+        material = image_material("Painted", halves("source"))
+        mapping = material.node_tree.nodes.new("ShaderNodeMapping")
+        mapping.vector_type = "TEXTURE"
+        mapping.inputs["Scale"].default_value = (0.0, 1.0, 1.0)
+        material.node_tree.links.new(mapping.outputs["Vector"], texture_node(material).inputs["Vector"])
+        sphere(material=material)
+    elif name == "missing UV map":
+        material = image_material("Painted", halves("source"))
+        uv = material.node_tree.nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "Gone"
+        material.node_tree.links.new(uv.outputs["UV"], texture_node(material).inputs["Vector"])
+        sphere(material=material)
+    elif name == "empty":
+        bpy.ops.object.empty_add()
+    elif name == "text":
+        bpy.ops.object.text_add()
+
+
+@pytest.mark.parametrize("case, message", [
+    ("NaN vertex", "the mesh of 'Ball' has 1 vertex whose position is not a finite number"),
+    ("NaN pixels", "image 'source' has 3 pixels that are not finite numbers"),
+    ("singular mapping", "the Mapping node 'Mapping' in material 'Painted' has a zero scale, "
+                         "which maps the whole texture to one line or point"),
+    ("missing UV map", "the UV Map node 'UV Map' in material 'Painted' names the UV map 'Gone', "
+                       "which the mesh of 'Ball' does not have"),
+    ("empty", "'Empty' is an empty, not a mesh"),
+    ("text", "'Text' is a text object, not a mesh: convert it first (Object > Convert > Mesh)"),
+])
+def test_messages_name_the_real_cause(addon, case, message):
+    _message_case(case)
+    before = snapshot()
+    assert run_error() == message
+    assert_unchanged(before, snapshot())
+
+
+def test_edit_mode_is_refused_by_the_poll_with_a_reason(addon):
+    sphere(material=image_material("Painted", halves("source")))
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(RuntimeError) as info:
+        bpy.ops.object.cp_stylize()
+    assert "leave Edit Mode first" in str(info.value)
+
+
+# -- 13. limits --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("text, message", [
+    ('mode = "ced"\nspacing = 5.0\n', "spacing must lie in [0.002, 0.1], got 5.0"),
+    ('mode = "ced"\nT = 1000.0\n', "T must lie in [1e-06, 0.1], got 1000.0"),
+    ('mode = "ced"\n[params]\nrho = 3.0\n', "rho must lie in [0, 0.05], got 3.0"),
+])
+def test_presets_keep_the_panels_limits(addon, tmp_path, text, message):
+    sphere(material=image_material("Painted", halves("source")))
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    before = snapshot()
+    assert run_error(preset=str(path)) == f"{path}: {message}"
+    assert_unchanged(before, snapshot())
+
+
+def test_a_run_estimated_above_the_time_limit_is_refused(addon, monkeypatch):
+    from cp_stylize.blender import stylize
+
+    sphere(material=image_material("Painted", halves("source")))
+    addon.quality, addon.time, addon.mode = "HIGH", 0.05, "ced"
+    monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
+    before = snapshot()
+    message = run_error()
+    assert message.startswith("this run would take roughly ") and message.endswith(
+        ", above the time limit of 15 min: lower the quality or the time, or raise the limit")
+    assert " h " in message  # hours
+    assert_unchanged(before, snapshot())
+
+
+def test_the_memory_limit_stops_at_the_computers_memory(addon, monkeypatch):
+    from cp_stylize.blender import stylize
+
+    sphere(material=image_material("Painted", halves("source")))
+    addon.memory_limit = 1024.0
+    addon.quality = "HIGH"
+    monkeypatch.setattr(stylize, "physical_memory", lambda: 2**30)
+    before = snapshot()
+    message = run_error()
+    assert message.startswith("this run needs about ") and message.endswith(
+        "more than this computer's 1.0 GiB of memory: lower the quality")
+    assert_unchanged(before, snapshot())
+
+
+def test_quality_applies_without_a_preset(addon, capfd):
+    sphere(material=image_material("Painted", halves("source")))
+    assert addon.quality == "PREVIEW"
+    assert bpy.ops.object.cp_stylize(quality="STANDARD") == {"FINISHED"}
+    assert "grid spacing 0.008" in capfd.readouterr().out
