@@ -282,7 +282,7 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
     else:
         reason = "a new atlas was requested" if force_new else "the mesh has no UVs"
         if not allow_new:
-            raise UnusableUVs(reason[len("the mesh "):] if uvs is None else reason)
+            raise UnusableUVs("it has none" if uvs is None else reason)
     new = _xatlas_uvs(mesh, size, padding=padding)
     texels, tri, bary, _ = _rasterise(new[mesh.face_index], size)
     return Atlas(uvs=new, size=size, generated=True, reason=reason,

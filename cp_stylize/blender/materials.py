@@ -184,9 +184,9 @@ def _image_source(output, material, uv_names, owner):
     vector = _upstream(node.inputs["Vector"])
     if vector is not None and vector.node.type == "MAPPING":
         transform = _mapping_transform(vector.node, material)
-        if transform is None:
-            return None
         vector = _upstream(vector.node.inputs["Vector"])
+        if transform is None or vector is None:   # an unlinked Mapping input is a constant, not the UVs
+            return None
     if vector is not None:
         kind = vector.node.type
         if kind == "UVMAP" and not getattr(vector.node, "from_instancer", False):

@@ -216,6 +216,54 @@ def test_the_procedural_bake_leaves_the_users_images_alone(addon):
     assert grey.max() - grey.min() > 0.3
 
 
+def test_a_procedural_colour_on_a_mesh_without_uvs_is_baked_through_a_new_atlas(addon):
+    obj = sphere(material=procedural_material())
+    remove_uvs(obj)
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    # one new UV map, the atlas the image is laid out on; the bake's temporary one is gone
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["cp_stylize_atlas"]
+    assert after["materials"]["Checker"] == before["materials"]["Checker"]
+    assert set(after["images"]) - set(before["images"]) == {"Ball_stylized"}
+    points, colours = texel_points(obj, stylized_image(obj), uv_name="cp_stylize_atlas")
+    grey = colours.mean(axis=1)
+    assert grey.max() - grey.min() > 0.3  # both checker tones
+
+
+def test_a_hidden_object_with_a_procedural_colour_is_refused(addon):
+    obj = sphere(material=procedural_material())
+    obj.hide_set(True)
+    before = snapshot()
+    assert run_error() == "'Ball' is hidden: show it (Alt+H) so that its procedural colours can be baked"
+    assert_unchanged(before, snapshot())
+
+
+def test_slots_sharing_a_material_share_its_copy(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    obj.data.materials.append(material)
+    centres = np.array([p.center.z for p in obj.data.polygons])
+    obj.data.polygons.foreach_set("material_index", (centres < 0).astype(np.int32))
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copies = [slot.material for slot in obj.material_slots]
+    assert copies[0] == copies[1] and copies[0].name == "Painted_stylized"
+    assert sorted(bpy.data.materials.keys()) == ["Painted", "Painted_stylized"]
+
+
+def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_before_the_run(addon, monkeypatch):
+    from cp_stylize import band
+
+    obj = _bare_sphere_with_material()
+    obj.modifiers.new("Subdivision", "SUBSURF")
+    monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
+    before = snapshot()
+    assert run_error() == ("'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
+                           "fix the UV map, or apply the modifiers that change its topology "
+                           "(or make its mesh local) first")
+    assert_unchanged(before, snapshot())
+
+
 # -- 3. a failure after the core has run leaves no trace -----------------------------------------
 
 
@@ -433,6 +481,117 @@ def test_a_clipped_image_is_black_outside_its_unit_square(addon):
     # u < 1/2 maps into the image (green); u > 1/2 maps beyond it, where CLIP is black (REPEAT would be green)
     left, right = out[rows, n // 16:n // 2 - n // 16].reshape(-1, 3), out[rows, n // 2 + n // 16:-n // 16].reshape(-1, 3)
     assert near(left, GREEN).mean() > 0.9 and (right.max(axis=1) < 0.05).mean() > 0.9
+
+
+def smooth_image(name, *, colorspace="sRGB", float_buffer=False, size=64):
+    """A smooth, colourful image (no edge a bake's resolution would blur)."""
+    image = bpy.data.images.new(name, size, size, float_buffer=float_buffer)
+    if image.colorspace_settings.name != colorspace:
+        image.colorspace_settings.name = colorspace
+    v, u = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size, indexing="ij")
+    rgba = np.ones((size, size, 4), dtype=np.float32)
+    rgba[..., 0] = 0.5 + 0.4 * np.sin(2 * np.pi * u)
+    rgba[..., 1] = 0.5 + 0.4 * np.cos(2 * np.pi * v)
+    rgba[..., 2] = 0.3 + 0.3 * u * v
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    return image
+
+
+def _configure(material, case):
+    """Set up the image's coordinates, extension or colour space for a renderer-equivalence case."""
+    tree = material.node_tree
+    tex = texture_node(material)
+    if case.startswith("mapping"):
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        if case == "mapping texture":
+            mapping.vector_type = "TEXTURE"
+            mapping.inputs["Location"].default_value = (0.1, 0.2, 0.0)
+            mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.5)
+            mapping.inputs["Scale"].default_value = (1.5, 0.7, 1.0)
+        else:
+            mapping.inputs["Rotation"].default_value = (0.3, 0.0, 0.2)
+            mapping.inputs["Scale"].default_value = (1.2, 2.0, 1.0)
+        tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+        tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], mapping.inputs["Vector"])
+    elif case in ("CLIP", "MIRROR", "EXTEND"):
+        tex.extension = case
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        mapping.inputs["Location"].default_value = (-0.2, -0.1, 0.0)
+        mapping.inputs["Scale"].default_value = (1.4, 1.3, 1.0)
+        tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+        tree.links.new(tree.nodes.new("ShaderNodeUVMap").outputs["UV"], mapping.inputs["Vector"])
+    elif case == "unlinked mapping":   # its Vector input is a constant (0, 0, 0), not the UVs
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        mapping.inputs["Location"].default_value = (0.3, 0.6, 0.0)
+        tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    elif case == "second UV map":
+        uv = tree.nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "Second"
+        tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
+
+
+def _baked_twin(material):
+    """A copy of ``material`` that Cycles must bake: a neutral Gamma node between the image and the shader."""
+    twin = material.copy()
+    tree = twin.node_tree
+    gamma = tree.nodes.new("ShaderNodeGamma")
+    gamma.inputs["Gamma"].default_value = 1.0
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(texture_node(twin).outputs["Color"], gamma.inputs["Color"])
+    tree.links.new(gamma.outputs["Color"], bsdf.inputs["Base Color"])
+    return twin
+
+
+def job_centres_uv(obj):
+    """The render UV map's coordinates at the centre of each triangle of ``obj``'s mesh."""
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    loops = np.empty(3 * len(mesh.loop_triangles), np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    uv = np.empty(2 * len(mesh.loops))
+    next(l for l in mesh.uv_layers if l.active_render).data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)[loops.reshape(-1, 3)].mean(axis=1)
+
+
+def _colours_at_face_centres(job):
+    import types
+
+    from cp_stylize.pipeline import sample_colours
+
+    n = len(job.mesh.triangles)
+    band = types.SimpleNamespace(face=np.arange(n), bary=np.full((n, 3), 1.0 / 3.0), size=n, surface=None)
+    return sample_colours(band, job.colours)
+
+
+@pytest.mark.parametrize("case", ["plain", "mapping texture", "mapping point", "CLIP", "MIRROR", "EXTEND",
+                                  "Non-Color", "Linear Rec.709 float", "second UV map", "unlinked mapping"])
+def test_images_are_read_as_cycles_renders_them(addon, case):
+    from cp_stylize.blender import materials, stylize
+
+    colorspace = {"Non-Color": "Non-Color", "Linear Rec.709 float": "Linear Rec.709"}.get(case, "sRGB")
+    image = smooth_image("smooth", colorspace=colorspace, float_buffer=case.endswith("float"))
+    material = image_material("Direct", image)
+    _configure(material, case)
+    obj = sphere(material=material, segments=48, rings=24)
+    if case == "second UV map":
+        second = obj.data.uv_layers.new(name="Second")
+        uv = np.empty(2 * len(obj.data.loops))
+        obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
+        second = obj.data.uv_layers["Second"]
+        second.data.foreach_set("uv", (0.25 + 0.5 * uv).ravel())
+    direct_source = materials.colour_source(material, obj.data.uv_layers.keys(), obj.name)
+    # read directly, except where only Cycles knows (then both sides are bakes and agree trivially)
+    assert isinstance(direct_source, materials.BakeSource if case == "unlinked mapping" else materials.ImageSource)
+    direct = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    obj.material_slots[0].material = _baked_twin(material)
+    baked = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    error = np.abs(direct - baked).max(axis=1)
+    if case == "CLIP":  # the bake blurs the image's sharp clipped border over a texel of the bake: leave it out
+        t = job_centres_uv(obj) * (1.4, 1.3) + (-0.2, -0.1)
+        error = error[np.all((np.abs(t) > 0.01) & (np.abs(t - 1) > 0.01), axis=1)]
+    print(f"\n{case}: median {np.median(error):.4f}, 98th percentile {np.percentile(error, 98):.4f}")
+    assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
 
 
 # -- 8-11. scope -----------------------------------------------------------------------------------
