@@ -78,16 +78,6 @@ def test_register_unregister_register_again():
         addon.unregister()
 
 
-@pytest.fixture
-def registered():
-    import cp_stylize.blender as addon
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    addon.register()
-    yield
-    addon.unregister()
-
-
 def test_estimate_reports_an_error_for_a_non_mesh_object(registered):
     bpy.ops.object.empty_add()
     with pytest.raises(RuntimeError, match="^Error: 'Empty' is an empty, not a mesh\n$"):

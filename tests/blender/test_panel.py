@@ -43,16 +43,6 @@ class FakeLayout:
         pass
 
 
-@pytest.fixture
-def registered():
-    import cp_stylize.blender as addon
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    addon.register()
-    yield bpy.context.scene.cp_stylize
-    addon.unregister()
-
-
 @pytest.mark.parametrize("mode", ["ced", "eed", "perona_malik", "gaussian", "beltrami"])
 def test_every_panel_draws_for_every_mode(registered, mode):
     from cp_stylize.blender import panel

@@ -15,82 +15,17 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from blender_state import assert_unchanged, differences, files, pixel_hash, snapshot  # noqa: E402
+from blender_scenes import (BLUE, GREEN, RED, halves, image_material, new_image, node_material,  # noqa: E402
+                            procedural_material, sphere, surface_from)
+from blender_state import assert_unchanged, files, pixel_hash, snapshot  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
-RED, BLUE, GREEN = (0.9, 0.1, 0.1), (0.1, 0.2, 0.9), (0.1, 0.8, 0.2)
-
-
 @pytest.fixture
-def addon():
-    import cp_stylize.blender as addon
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    addon.register()
-    settings = bpy.context.scene.cp_stylize
-    settings.quality = "PREVIEW"
-    settings.image_size = "512"
-    settings.mode, settings.time = "gaussian", 1e-6
-    yield settings
-    addon.unregister()
-
-
-# -- scene building ------------------------------------------------------------------------------
-
-
-def halves(name, left=RED, right=BLUE, *, size=64, axis="u", colorspace="sRGB", float_buffer=False, pack=True):
-    """An image whose left (u < 1/2) or bottom (v < 1/2) half is ``left`` and the rest ``right``."""
-    image = bpy.data.images.new(name, size, size, float_buffer=float_buffer)
-    if image.colorspace_settings.name != colorspace:
-        image.colorspace_settings.name = colorspace  # before the pixels: changing it reloads the image
-    rgba = np.ones((size, size, 4), dtype=np.float32)
-    first = (np.arange(size) < size // 2)
-    mask = first[None, :] if axis == "u" else first[:, None]
-    rgba[..., :3] = np.where(mask[..., None], left, right)
-    image.pixels.foreach_set(rgba.ravel())
-    if pack:
-        image.pack()
-    return image
-
-
-def image_material(name, image, *, shader="ShaderNodeBsdfPrincipled"):
-    """A material whose surface shader takes its colour from an Image Texture of ``image``."""
-    material = bpy.data.materials.new(name)
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
-    surface = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    if shader != "ShaderNodeBsdfPrincipled":
-        tree.nodes.remove(surface)
-        surface = tree.nodes.new(shader)
-        tree.links.new(surface.outputs[0], out.inputs["Surface"])
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = image
-    colour = surface.inputs["Base Color"] if "Base Color" in surface.inputs else surface.inputs["Color"]
-    tree.links.new(tex.outputs["Color"], colour)
-    tree.nodes.active = tex
-    return material
-
-
-def procedural_material(name="Checker"):
-    material = bpy.data.materials.new(name)
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    checker = tree.nodes.new("ShaderNodeTexChecker")
-    checker.inputs["Scale"].default_value = 6.0
-    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
-    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
-    return material
-
-
-def sphere(name="Ball", material=None, *, segments=32, rings=16):
-    from cp_stylize.blender import scene
-
-    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=segments, rings=rings)
-    return obj
+def addon(addon):
+    """The add-on at preview quality with a filter that barely changes the colours, so they can be checked."""
+    addon.mode, addon.time = "gaussian", 1e-6
+    return addon
 
 
 def remove_uvs(obj):
@@ -269,10 +204,7 @@ def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_befor
 
 def _bare_sphere_with_material():
     """A sphere without UVs (the run adds an atlas UV map) whose material has a flat colour."""
-    material = bpy.data.materials.new("Flat")
-    if material.node_tree is None:
-        material.use_nodes = True
-    obj = sphere(material=material)
+    obj = sphere(material=node_material("Flat"))
     remove_uvs(obj)
     return obj
 
@@ -408,44 +340,33 @@ def test_an_emission_shader_is_read_and_kept(addon):
     assert near(colours, RED).mean() > 0.4 and near(colours, BLUE).mean() > 0.4  # not flat grey
 
 
-def test_a_shader_without_a_colour_input_is_refused_by_name(addon):
-    material = bpy.data.materials.new("Mixed")
-    if material.node_tree is None:
-        material.use_nodes = True
+def _shader_without_colour(kind):
+    """A Mix Shader named 'Blend', or a node group 'Toon' without a colour input, at the Material Output."""
+    material = node_material("Mixed" if kind == "Mix Shader" else "Grouped")
     tree = material.node_tree
-    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
-    mix = tree.nodes.new("ShaderNodeMixShader")
-    mix.name = "Blend"
-    tree.links.new(bsdf.outputs[0], mix.inputs[1])
-    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
-    tree.links.new(mix.outputs[0], out.inputs["Surface"])
-    sphere(material=material)
-    before = snapshot()
-    assert run_error() == ("material 'Mixed': its surface comes from the node 'Blend' (Mix Shader), which has no "
-                           "colour input; cp_stylize reads and writes the Base Color or Color input of the shader "
-                           "connected to the Material Output")
-    assert_unchanged(before, snapshot())
-
-
-def test_a_node_group_shader_is_refused_by_name(addon):
-    group = bpy.data.node_groups.new("Toon Group", "ShaderNodeTree")
-    if hasattr(group, "interface"):
-        group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    if kind == "Mix Shader":
+        node = tree.nodes.new("ShaderNodeMixShader")
+        node.name = "Blend"
+        tree.links.new(next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED").outputs[0], node.inputs[1])
     else:
-        group.outputs.new("NodeSocketShader", "Shader")
-    material = bpy.data.materials.new("Grouped")
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    node.name = "Toon"
-    out = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
-    tree.links.new(node.outputs[0], out.inputs["Surface"])
-    sphere(material=material)
+        group = bpy.data.node_groups.new("Toon Group", "ShaderNodeTree")
+        if hasattr(group, "interface"):
+            group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+        else:
+            group.outputs.new("NodeSocketShader", "Shader")
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        node.name = "Toon"
+    surface_from(material, node)
+    return material
+
+
+@pytest.mark.parametrize("kind, material, node", [("Mix Shader", "Mixed", "Blend"), ("Group", "Grouped", "Toon")])
+def test_a_shader_without_a_colour_input_is_refused_by_name(addon, kind, material, node):
+    sphere(material=_shader_without_colour(kind))
     before = snapshot()
-    assert run_error() == ("material 'Grouped': its surface comes from the node 'Toon' (Group), which has no "
-                           "colour input; cp_stylize reads and writes the Base Color or Color input of the shader "
+    assert run_error() == (f"material {material!r}: its surface comes from the node {node!r} ({kind}), which has "
+                           "no colour input; cp_stylize reads and writes the Base Color or Color input of the shader "
                            "connected to the Material Output")
     assert_unchanged(before, snapshot())
 
@@ -483,19 +404,11 @@ def test_a_clipped_image_is_black_outside_its_unit_square(addon):
     assert near(left, GREEN).mean() > 0.9 and (right.max(axis=1) < 0.05).mean() > 0.9
 
 
-def smooth_image(name, *, colorspace="sRGB", float_buffer=False, size=64):
+def smooth_image(name, *, size=64, **options):
     """A smooth, colourful image (no edge a bake's resolution would blur)."""
-    image = bpy.data.images.new(name, size, size, float_buffer=float_buffer)
-    if image.colorspace_settings.name != colorspace:
-        image.colorspace_settings.name = colorspace
     v, u = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size, indexing="ij")
-    rgba = np.ones((size, size, 4), dtype=np.float32)
-    rgba[..., 0] = 0.5 + 0.4 * np.sin(2 * np.pi * u)
-    rgba[..., 1] = 0.5 + 0.4 * np.cos(2 * np.pi * v)
-    rgba[..., 2] = 0.3 + 0.3 * u * v
-    image.pixels.foreach_set(rgba.ravel())
-    image.pack()
-    return image
+    rgb = np.stack([0.5 + 0.4 * np.sin(2 * np.pi * u), 0.5 + 0.4 * np.cos(2 * np.pi * v), 0.3 + 0.3 * u * v], axis=-1)
+    return new_image(name, rgb, **options)
 
 
 def _configure(material, case):

@@ -5,20 +5,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
+from blender_scenes import node_material, procedural_material  # noqa: E402
+
 pytestmark = pytest.mark.blender
-
-
-@pytest.fixture
-def addon():
-    import cp_stylize.blender as addon
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    addon.register()
-    settings = bpy.context.scene.cp_stylize
-    settings.quality = "PREVIEW"
-    settings.image_size = "512"
-    yield settings
-    addon.unregister()
 
 
 def _pixels(image):
@@ -120,14 +109,7 @@ def test_a_procedural_material_is_baked_then_stylized(addon):
     from cp_stylize.blender import scene
 
     obj = scene.add_uv_sphere("Checkers", radius=1.0, segments=32, rings=16)
-    material = bpy.data.materials.new("Checker")
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    checker = tree.nodes.new("ShaderNodeTexChecker")
-    checker.inputs["Scale"].default_value = 6.0
-    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
-    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    material = procedural_material()
     obj.data.materials.append(material)
     images_before = set(bpy.data.images.keys())
     nodes_before = len(material.node_tree.nodes)
@@ -168,9 +150,7 @@ def test_an_object_with_two_materials(addon):
     from cp_stylize.blender import scene
 
     obj, painted, source = _textured_sphere(name="Duo")
-    plain = bpy.data.materials.new("Plain")
-    if plain.node_tree is None:
-        plain.use_nodes = True
+    plain = node_material("Plain")
     next(n for n in plain.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Base Color"].default_value = (
         0.0, 0.8, 0.0, 1.0)
     obj.data.materials.append(plain)

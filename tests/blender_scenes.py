@@ -1,0 +1,78 @@
+"""Scene building blocks of the Blender tests: images, materials and objects."""
+
+import bpy
+import numpy as np
+
+RED, BLUE, GREEN = (0.9, 0.1, 0.1), (0.1, 0.2, 0.9), (0.1, 0.8, 0.2)
+
+
+def new_image(name, rgb, *, colorspace="sRGB", float_buffer=False, pack=True):
+    """An image holding the colours ``rgb`` (H, W, 3), row 0 at the bottom."""
+    h, w, _ = rgb.shape
+    image = bpy.data.images.new(name, w, h, float_buffer=float_buffer)
+    if image.colorspace_settings.name != colorspace:
+        image.colorspace_settings.name = colorspace  # before the pixels: changing it reloads the image
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = rgb
+    image.pixels.foreach_set(rgba.ravel())
+    if pack:
+        image.pack()
+    return image
+
+
+def halves(name, left=RED, right=BLUE, *, size=64, axis="u", **options):
+    """An image whose left (u < 1/2) or bottom (v < 1/2) half is ``left`` and the rest ``right``."""
+    first = (np.arange(size) < size // 2)
+    mask = first[None, :] if axis == "u" else first[:, None]
+    return new_image(name, np.where(mask[..., None], left, right) * np.ones((size, size, 1)), **options)
+
+
+def node_material(name):
+    """A new material with its node tree (Blender 4.x makes the tree on request)."""
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    return material
+
+
+def surface_from(material, node):
+    """Connect ``node``'s first output to the material's Material Output Surface; returns ``node``."""
+    out = next(n for n in material.node_tree.nodes if n.type == "OUTPUT_MATERIAL")
+    material.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
+    return node
+
+
+def image_material(name, image, *, shader="ShaderNodeBsdfPrincipled"):
+    """A material whose surface shader takes its colour from an Image Texture of ``image``."""
+    material = node_material(name)
+    tree = material.node_tree
+    surface = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if shader != "ShaderNodeBsdfPrincipled":
+        tree.nodes.remove(surface)
+        surface = surface_from(material, tree.nodes.new(shader))
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    colour = surface.inputs["Base Color"] if "Base Color" in surface.inputs else surface.inputs["Color"]
+    tree.links.new(tex.outputs["Color"], colour)
+    tree.nodes.active = tex
+    return material
+
+
+def procedural_material(name="Checker"):
+    """A Principled BSDF whose Base Color is a checker texture (Cycles must bake it)."""
+    material = node_material(name)
+    tree = material.node_tree
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 6.0
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    return material
+
+
+def sphere(name="Ball", material=None, *, segments=32, rings=16):
+    from cp_stylize.blender import scene
+
+    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=segments, rings=rings)
+    return obj
+
+
