@@ -36,6 +36,7 @@ Images are float arrays (H, W, C) with row 0 at the bottom, as in
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 
 import numpy as np
 from scipy import ndimage
@@ -228,11 +229,15 @@ def _problems(uv, size):
 
 
 class UnusableUVs(ValueError):
-    """The mesh's own UVs cannot hold the output and no new atlas may be made; ``problems`` says why."""
+    """The mesh's own UVs cannot hold the output and no new atlas can be made.
 
-    def __init__(self, problems):
-        self.problems = problems
-        super().__init__("the mesh's own UVs are not usable: " + problems)
+    ``problems`` says what is wrong with the UVs, ``why`` (if known here) why
+    no new atlas can be made.
+    """
+
+    def __init__(self, problems, why=None):
+        self.problems, self.why = problems, why
+        super().__init__(f"the mesh has no usable UVs ({problems})" + (f" and {why}" if why else ""))
 
 
 def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=True):
@@ -276,13 +281,16 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
             texels, tri, bary, _ = raster
             return Atlas(uvs=uvs.copy(), size=size, generated=False, reason="the mesh's own UVs are usable",
                          texels=texels, face=mesh.face_index[tri], bary=bary)
-        reason = "the mesh's own UVs are not usable: " + "; ".join(problems)
-        if not allow_new:
-            raise UnusableUVs("; ".join(problems))
+        problems = "; ".join(problems)
+        reason = "the mesh's own UVs are not usable: " + problems
     else:
         reason = "a new atlas was requested" if force_new else "the mesh has no UVs"
-        if not allow_new:
-            raise UnusableUVs("it has none" if uvs is None else reason)
+        problems = "it has none" if uvs is None else reason
+    if not allow_new:
+        raise UnusableUVs(problems)
+    if importlib.util.find_spec("xatlas") is None:
+        raise UnusableUVs(problems, "xatlas, which makes new UV maps, is not installed for this platform and "
+                                    "Python: add a UV map to the mesh (for example with Smart UV Project)")
     new = _xatlas_uvs(mesh, size, padding=padding)
     texels, tri, bary, _ = _rasterise(new[mesh.face_index], size)
     return Atlas(uvs=new, size=size, generated=True, reason=reason,

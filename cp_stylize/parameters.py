@@ -70,8 +70,8 @@ FILTER_PARAMETERS = {p.name: p for p in (
                                     "whose orientation the strokes follow)", 0.0, 0.05, 5e-4, "time"),
     Parameter("alpha", "Alpha", "CED: smallest diffusivity, across the flow (0 to 1)", 0.0, 1.0, 1e-3,
               precision=4, step=0.01),
-    Parameter("b_rel", "Coherence Threshold", "CED: B relative to the largest coherence of the input; "
-                                              "smaller values draw strokes in weaker structure",
+    Parameter("b_rel", "Threshold", "CED's coherence threshold B, relative to the largest coherence of "
+                                    "the input; smaller values draw strokes in weaker structure",
               0.0, 1.0, 1e-3, precision=7, step=0.0001),
     Parameter("lambda_rel", "Edge Threshold", "Edge sensitivity lambda relative to the input's largest "
                                               "coherence (EED) or gradient (Perona-Malik, Beltrami)",
@@ -97,14 +97,14 @@ class Filter:
 #: The modes, in the order the panel lists them.  Defaults follow the paper:
 #: EED and Perona-Malik its Fig. 4, CED its eq. (55).
 FILTERS = {f.name: f for f in (
-    Filter("ced", "Coherence-Enhancing",
-           "Weickert's CED: smooths along the flow of the texture, painterly strokes",
+    Filter("ced", "Strokes (CED)",
+           "Weickert's coherence-enhancing diffusion: smooths along the flow of the texture, painterly strokes",
            {"sigma": 1e-4, "rho": 4e-4, "alpha": 1e-3, "b_rel": 1e-3}),
-    Filter("eed", "Edge-Enhancing", "Weickert's EED: removes noise, keeps edges sharp",
+    Filter("eed", "Denoise (EED)", "Weickert's edge-enhancing diffusion: removes noise, keeps edges sharp",
            {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}),
     Filter("perona_malik", "Perona-Malik", "Edge-stopping smoothing",
            {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0}),
-    Filter("gaussian", "Gaussian", "Uniform blur on the surface", {}),
+    Filter("gaussian", "Gaussian Blur", "Uniform blur on the surface", {}),
     Filter("beltrami", "Beltrami", "Colour Beltrami flow: smooths regions, sharpens colour edges",
            {"sigma": 0.0, "lambda_rel": 0.1}),
 )}

@@ -2,10 +2,13 @@
 
     blender -b --factory-startup --python-exit-code 1 --python tests/blender_runner.py -- [pytest arguments]
 
-Blender's own Python needs pytest, scipy and xatlas: either install them into it
-(``<blender python> -m pip install -r requirements.txt`` without the bpy line) or
-point PYTHONPATH at a site-packages of Python 3.11 that has them.  Tests that
-start a fresh Blender then use this same binary (``blender -b``).
+Blender's own Python needs pytest, scipy and xatlas: install them into it
+(``<blender python> -m pip install -r requirements.txt`` without the bpy line),
+or use a Blender that runs the system's Python (as Debian's does, see
+``tools/real_blender.sh``), or point PYTHONPATH at a site-packages of the same
+Python version and add ``--python-use-system-env`` (Blender ignores PYTHONPATH
+without it).  Tests that start a fresh Blender use this same binary
+(``blender -b --python-use-system-env``).
 """
 
 import os

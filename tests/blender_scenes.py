@@ -69,10 +69,12 @@ def procedural_material(name="Checker"):
     return material
 
 
-def sphere(name="Ball", material=None, *, segments=32, rings=16):
-    from cp_stylize.blender import scene
-
-    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=segments, rings=rings)
+def sphere(name="Ball", material=None, *, segments=32, rings=16, location=(0.0, 0.0, 0.0)):
+    """A smooth-shaded UV sphere of radius 1 (with its UV map) wearing ``material``."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=1.0, location=location)
+    obj = bpy.context.active_object
+    obj.name = name
+    bpy.ops.object.shade_smooth()
+    if material is not None:
+        obj.data.materials.append(material)
     return obj
-
-

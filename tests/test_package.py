@@ -1,9 +1,10 @@
 """Package-level facts: the core stands without Blender, the public API is there."""
 
+import os
 import subprocess
 import sys
 
-from conftest import ROOT
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_core_imports_without_bpy():

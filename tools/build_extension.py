@@ -8,10 +8,13 @@ Usage (from any directory, with the Python that has the ``bpy`` module)::
 
 For each requested Blender platform the script
 
-1. downloads the cp311 wheels of SciPy and xatlas (the versions pinned in
-   ``requirements.txt``) with ``pip download --only-binary=:all: --no-deps``;
-   pip's cache makes later runs cheap.  NumPy is never shipped: Blender brings
-   its own (1.26, the version SciPy is built against);
+1. downloads the wheels of SciPy and xatlas (the versions pinned in
+   ``requirements.txt``) for each Python Blender runs: cp311 (Blender 4.2 to
+   5.0) and cp313 (5.1 and newer), with ``pip download --only-binary=:all:
+   --no-deps``; pip's cache makes later runs cheap.  Blender installs the
+   wheels that match its Python.  NumPy is never shipped: Blender brings its
+   own (1.24 in 4.2 and 4.3, 1.26 in 4.4 to 5.0, 2.3 from 5.1 on), and the
+   pinned SciPy (1.15) is the newest that loads with all of them;
 2. copies the extension source (the files git tracks plus untracked files it
    does not ignore; without git, the tree minus virtual environments, build
    output and wheels) into a staging directory, puts the wheels into its
@@ -46,9 +49,11 @@ substitute, so every zip that ships xatlas ships the tested version.
 ``--no-wheels`` builds a single zip without wheels, for a Blender whose Python
 already has SciPy; it declares ``platforms`` only when ``--platforms`` is given.
 
-``blender_ext.py`` is found in the installed ``bpy`` module
-(``bpy.utils.system_resource('SCRIPTS')/addons_core/bl_pkg/cli/blender_ext.py``)
-unless ``--blender-ext PATH`` names it, and runs with this Python.  The exit
+``blender_ext.py`` is ``--blender-ext PATH``, else the one in the ``bpy``
+module this Python imports
+(``bpy.utils.system_resource('SCRIPTS')/addons_core/bl_pkg/cli/blender_ext.py``),
+else the one of the Blender binary ``--blender PATH`` (default: ``blender`` on
+the PATH), which is asked where its scripts are.  It runs with this Python.  The exit
 status is non-zero, with the reason on stderr, when any step fails.
 """
 
@@ -64,7 +69,8 @@ import tomllib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MANIFEST = "blender_manifest.toml"
-PYTHON_VERSION = "3.11"
+#: The Pythons of the Blender versions the extension supports: 3.11 (4.2 to 5.0), 3.13 (5.1 and newer).
+PYTHON_VERSIONS = ("3.11", "3.13")
 REQUIRED = ("scipy",)
 OPTIONAL = ("xatlas",)
 PIP_PLATFORMS = {
@@ -104,19 +110,33 @@ def pinned_versions(names, path=os.path.join(ROOT, "requirements.txt")):
     return {name: pins[name] for name in names}
 
 
-def blender_ext_path(override=None):
+def blender_ext_path(override=None, blender=None):
+    """Path of Blender's blender_ext.py: ``override``, the bpy module's, or the ``blender`` binary's."""
     if override:
         path = os.path.abspath(override)
     else:
         try:
             import bpy
-        except ImportError as ex:
-            raise BuildError(f"cannot import bpy to find blender_ext.py ({ex}); "
-                             "install requirements.txt or pass --blender-ext PATH") from None
-        path = os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core", "bl_pkg", "cli", "blender_ext.py")
+            scripts = bpy.utils.system_resource("SCRIPTS")
+        except ImportError:
+            scripts = _binary_scripts(blender or shutil.which("blender"))
+        path = os.path.join(scripts, "addons_core", "bl_pkg", "cli", "blender_ext.py")
     if not os.path.isfile(path):
         raise BuildError(f"blender_ext.py is not at {path}")
     return path
+
+
+def _binary_scripts(blender):
+    """The scripts folder of a Blender binary."""
+    if not blender:
+        raise BuildError("cannot find blender_ext.py: this Python has no bpy module and there is no `blender` on the "
+                         "PATH; install requirements.txt, or pass --blender PATH or --blender-ext PATH")
+    code = "import bpy; print('SCRIPTS=' + bpy.utils.system_resource('SCRIPTS'))"
+    proc = run([blender, "-b", "--factory-startup", "--python-expr", code], f"{blender} (asked for its scripts)")
+    found = re.findall(r"^SCRIPTS=(.*)$", proc.stdout, re.MULTILINE)
+    if not found:
+        raise BuildError(f"{blender} did not say where its scripts are:\n{proc.stdout[-2000:]}")
+    return found[-1]
 
 
 def run(cmd, what):
@@ -135,11 +155,11 @@ def released_versions(package):
     return [v.strip() for v in match.group(1).split(",")] if proc.returncode == 0 and match else []
 
 
-def download_wheel(package, version, platform, dest):
-    """The path of the cp311 wheel of ``package==version`` for a Blender platform, or None if there is none."""
+def download_wheel(package, version, platform, python, dest):
+    """The path of the wheel of ``package==version`` for a Blender platform and Python, or None if there is none."""
     os.makedirs(dest, exist_ok=True)
     cmd = [sys.executable, "-m", "pip", "download", "--disable-pip-version-check",
-           "--only-binary=:all:", "--no-deps", "--python-version", PYTHON_VERSION, "--implementation", "cp"]
+           "--only-binary=:all:", "--no-deps", "--python-version", python, "--implementation", "cp"]
     for tag in PIP_PLATFORMS[platform]:
         cmd += ["--platform", tag]
     cmd += ["--dest", dest, f"{package}=={version}"]
@@ -148,13 +168,15 @@ def download_wheel(package, version, platform, dest):
     if proc.returncode != 0:
         if "No matching distribution found" in output and version in released_versions(package):
             return None
-        raise BuildError(f"pip download {package}=={version} for {platform} failed (exit {proc.returncode}; "
-                         "is the package index reachable?):\n"
-                         f"{output[-4000:]}")
+        raise BuildError(f"pip download {package}=={version} for {platform}, Python {python} failed "
+                         f"(exit {proc.returncode}; is the package index reachable?):\n{output[-4000:]}")
     prefix = re.sub(r"[-_.]+", "_", package).lower() + "-"
-    wheels = [n for n in os.listdir(dest) if n.endswith(".whl") and n.lower().startswith(prefix)]
+    tag = "-cp" + python.replace(".", "")
+    wheels = [n for n in os.listdir(dest) if n.endswith(".whl") and n.lower().startswith(prefix)
+              and (tag in n or "-abi3-" in n or "-py3-" in n)]
     if len(wheels) != 1:
-        raise BuildError(f"pip download {package}=={version} for {platform} left {wheels or 'no wheel'} in {dest}")
+        raise BuildError(f"pip download {package}=={version} for {platform}, Python {python} left "
+                         f"{wheels or 'no wheel'} in {dest}")
     return os.path.join(dest, wheels[0])
 
 
@@ -234,9 +256,9 @@ def build_zip(blender_ext, source_dir, zip_path):
     run([sys.executable, blender_ext, "validate", zip_path], f"blender_ext.py validate {os.path.basename(zip_path)}")
 
 
-def build(out, platforms, *, wheels=True, blender_ext=None, explicit_platforms=False):
+def build(out, platforms, *, wheels=True, blender_ext=None, blender=None, explicit_platforms=False):
     """Build and validate the zips; returns ``[(zip_path, platform or None, [wheel names], [notes])]``."""
-    blender_ext = blender_ext_path(blender_ext)
+    blender_ext = blender_ext_path(blender_ext, blender)
     with open(os.path.join(ROOT, MANIFEST), encoding="utf-8") as fh:
         manifest_text = fh.read()
     manifest = tomllib.loads(manifest_text)
@@ -265,15 +287,16 @@ def build(out, platforms, *, wheels=True, blender_ext=None, explicit_platforms=F
             wheel_dir = os.path.join(src, "wheels")
             os.makedirs(wheel_dir)
             shipped, notes = [], []
-            for package in REQUIRED + OPTIONAL:
+            for package, python in ((p, v) for p in REQUIRED + OPTIONAL for v in PYTHON_VERSIONS):
                 version = pins[package]
-                wheel = download_wheel(package, version, platform, os.path.join(tmp, platform, "download", package))
+                wheel = download_wheel(package, version, platform, python,
+                                       os.path.join(tmp, platform, "download", package, python))
                 if wheel is None:
                     if package in REQUIRED:
-                        raise BuildError(f"{package}=={version} has no cp{PYTHON_VERSION.replace('.', '')} wheel "
-                                         f"for {platform} (pip platforms {', '.join(PIP_PLATFORMS[platform])})")
-                    note = (f"{package}=={version} has no wheel for {platform}: building without {package} "
-                            "(the add-on falls back to the mesh's own UVs)")
+                        raise BuildError(f"{package}=={version} has no wheel for {platform} and Python {python} "
+                                         f"(pip platforms {', '.join(PIP_PLATFORMS[platform])})")
+                    note = (f"{package}=={version} has no wheel for {platform} and Python {python}: building "
+                            f"without it (there the add-on uses the mesh's own UVs only)")
                     log(f"  WARNING: {note}")
                     notes.append(note)
                     continue
@@ -304,7 +327,11 @@ def parse_args(argv):
     parser.add_argument("--no-wheels", action="store_true",
                         help="build one zip without wheels (Blender's Python must already have SciPy)")
     parser.add_argument("--blender-ext", metavar="PATH",
-                        help="blender_ext.py to use (default: the one in the installed bpy module)")
+                        help="blender_ext.py to use (default: the one in the installed bpy module, else the one "
+                             "of the Blender binary --blender)")
+    parser.add_argument("--blender", metavar="PATH",
+                        help="a Blender binary whose blender_ext.py to use when this Python has no bpy module "
+                             "(default: blender on the PATH)")
     return parser.parse_args(argv)
 
 
@@ -315,7 +342,8 @@ def main(argv=None):
     platforms = list(dict.fromkeys(args.platforms or PIP_PLATFORMS))
     try:
         results = build(os.path.abspath(args.out), platforms, wheels=not args.no_wheels,
-                        blender_ext=args.blender_ext, explicit_platforms=args.platforms is not None)
+                        blender_ext=args.blender_ext, blender=args.blender,
+                        explicit_platforms=args.platforms is not None)
     except BuildError as ex:
         print(f"build_extension.py: error: {ex}", file=sys.stderr, flush=True)
         return 1

@@ -44,7 +44,7 @@ class Changes:
 
     def set(self, owner, attr, value):
         old = getattr(owner, attr)
-        if old == value and not isinstance(old, float):
+        if old == value:
             return
         setattr(owner, attr, value)
         self.record(lambda: setattr(owner, attr, old))

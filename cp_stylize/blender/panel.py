@@ -4,6 +4,7 @@ import bpy
 
 from ..parameters import FILTERS
 from . import operators
+from .properties import filter_property
 
 _estimate_cache = {}
 
@@ -73,7 +74,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         col = layout.column(heading="Filter")
         col.prop(settings, "time")
         for parameter in FILTERS[settings.mode].parameters:
-            col.prop(settings, parameter.name)
+            col.prop(settings, filter_property(settings.mode, parameter.name))
 
 
 class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
@@ -85,6 +86,7 @@ class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
         settings = context.scene.cp_stylize
         layout = self.layout
         layout.use_property_split = True
+        layout.use_property_decorate = False
         layout.prop(settings, "noise_fraction")
         layout.prop(settings, "seed")
         for index, item in enumerate(settings.palette):

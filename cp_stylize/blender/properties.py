@@ -2,8 +2,11 @@
 
 Lengths and times are relative to the object's size: the object is normalised
 so that its longest side is 2 (as in the paper), so a setting looks the same on
-a 2 cm object and on a 20 m one.  The filter properties, their limits and
+a 2 cm object and on a 20 m one.  The properties, their limits, defaults and
 descriptions come from :mod:`cp_stylize.parameters`, the core's one table.
+Each mode keeps its own filter parameters (``ced_rho``, ``eed_rho``, ...), so
+switching modes never carries one filter's values into another;
+``settings.rho`` and the like read and set the current mode's.
 :meth:`CPStylizeSettings.to_settings` is the one place where the properties
 become the core's frozen StylizeSettings, :meth:`~CPStylizeSettings.output`
 the one place for what to do with the result.
@@ -20,10 +23,30 @@ QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 PROPERTY_NAMES = {"T": "time"}
 
 
-def _float_property(parameter, **options):
+def _float_property(parameter, default=None, **options):
     return bpy.props.FloatProperty(
-        name=parameter.label, description=parameter.description, default=parameter.default,
+        name=parameter.label, description=parameter.description,
+        default=parameter.default if default is None else default,
         min=parameter.minimum, max=parameter.maximum, precision=parameter.precision, step=parameter.step, **options)
+
+
+def filter_property(mode, name):
+    """The property that holds filter parameter ``name`` of ``mode``: each mode keeps its own values."""
+    return f"{mode}_{name}"
+
+
+def _current(name):
+    """A Python property for the current mode's value of filter parameter ``name`` (for scripts)."""
+    def get(self):
+        if name not in FILTERS[self.mode].defaults:
+            raise AttributeError(f"mode {self.mode!r} has no parameter {name!r}")
+        return getattr(self, filter_property(self.mode, name))
+
+    def set(self, value):
+        if name not in FILTERS[self.mode].defaults:
+            raise AttributeError(f"mode {self.mode!r} has no parameter {name!r}")
+        setattr(self, filter_property(self.mode, name), value)
+    return property(get, set, doc=f"{FILTER_PARAMETERS[name].label} of the current mode")
 
 
 class CPStylizePaletteColour(bpy.types.PropertyGroup):
@@ -88,7 +111,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         """The core's StylizeSettings for these properties."""
         from ..presets import StylizeSettings
 
-        params = {p.name: getattr(self, p.name) for p in FILTERS[self.mode].parameters}
+        params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             palette=tuple(tuple(p.colour) for p in self.palette),
@@ -112,7 +135,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         self.spacing = settings.spacing
         for name, default in FILTERS[settings.mode].defaults.items():
             value = getattr(settings, name)
-            setattr(self, name, default if value is None else value)
+            setattr(self, filter_property(settings.mode, name), default if value is None else value)
         self.noise_fraction = settings.noise_fraction
         self.seed = settings.seed
         self.palette.clear()
@@ -122,8 +145,14 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
             item.colour, item.weight = colour, weight
 
 
-for _parameter in list(RUN.values()) + list(FILTER_PARAMETERS.values()):
+for _parameter in RUN.values():
     CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _float_property(
         _parameter, **({"subtype": "FACTOR"} if _parameter.name == "noise_fraction" else {}))
+for _mode, _filter in FILTERS.items():
+    for _parameter in _filter.parameters:
+        CPStylizeSettings.__annotations__[filter_property(_mode, _parameter.name)] = _float_property(
+            _parameter, default=_filter.defaults[_parameter.name])
+for _name in FILTER_PARAMETERS:
+    setattr(CPStylizeSettings, _name, _current(_name))
 
 classes = (CPStylizePaletteColour, CPStylizeSettings)

@@ -163,17 +163,13 @@ def save_folder():
     return folder
 
 
-def _target_material(slot, output):
-    """The material a slot's result goes into (None: a new one), after checking it can be changed."""
-    material = slot.material if slot is not None else None
-    if material is None:
-        return None
+def _check_writable(material, output):
+    """Raise StylizeError if the result cannot go into (a copy of) ``material``."""
     if output.target == "APPLY" and material.library is not None:
         raise StylizeError(f"material {material.name!r} is linked from the library {material.library.name!r} and "
                            "cannot be changed here: choose New Material Copy, or make it local first")
     if materials.uses_nodes(material):
         materials.colour_input(material)   # the result needs a colour input to go into
-    return material
 
 
 # -- reading -----------------------------------------------------------------------------------
@@ -236,15 +232,13 @@ def _bake_atlas(obj, mesh, settings, new_atlas):
     try:
         return uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs, allow_new=new_atlas)
     except UnusableUVs as err:
-        raise StylizeError(_no_atlas_message(obj, err.problems)) from None
+        raise StylizeError(_no_atlas_message(obj.name, err)) from None
 
 
-def _no_atlas_message(obj, problems):
-    if obj.data.library is not None:
-        why = f"its mesh is linked from the library {obj.data.library.name!r}; make it local first"
-    else:
-        why = "its modifiers change its topology; fix the UV map or apply the modifiers first"
-    return f"{obj.name!r} has no usable UV map for the result ({problems}) and cannot get a new one: {why}"
+def _no_atlas_message(name, err):
+    why = err.why or ("fix the UV map, or apply the modifiers that change its topology (or make its mesh local) "
+                      "first")
+    return f"{name!r} has no usable UV map for the result ({err.problems}) and cannot get a new one: {why}"
 
 
 def prepare(obj, settings, output=Output(), depsgraph=None):
@@ -265,7 +259,8 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
     slots = [int(i) for i in used]
     for index in slots:
-        _target_material(obj.material_slots[index] if slot_count else None, output)
+        if slot_count and obj.material_slots[index].material is not None:
+            _check_writable(obj.material_slots[index].material, output)
     new_atlas = mesh.same_topology and obj.data.library is None
     colours, to_bake = _read_colours(obj, mesh, slots)
     atlas = None
@@ -297,9 +292,7 @@ def run_core(job, progress=None, log=None):
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
                              atlas=job.atlas, new_atlas=job.new_atlas, progress=progress, log=log)
     except UnusableUVs as err:
-        raise StylizeError(f"{job.object_name!r} has no usable UV map for the result ({err.problems}) and cannot "
-                           "get a new one: fix the UV map, or apply the modifiers that change its topology "
-                           "(or make its mesh local) first") from None
+        raise StylizeError(_no_atlas_message(job.object_name, err)) from None
     return job.result
 
 

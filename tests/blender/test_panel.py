@@ -55,7 +55,7 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_noise, panel.VIEW3D_PT_cp_stylize_output,
                 panel.CP_STYLIZE_MT_presets):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
-    props = {name for kind, name in log if kind == "prop"}
+    props = {name.removeprefix(mode + "_") for kind, name in log if kind == "prop"}  # the mode's own parameters
     assert {"mode", "quality", "time"} <= props
     assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode == "ced")
     assert ("operator", "object.cp_stylize") in log
@@ -86,12 +86,28 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
 
 
 def test_the_properties_take_their_limits_from_the_parameter_table(registered):
-    from cp_stylize.blender.properties import PROPERTY_NAMES
-    from cp_stylize.parameters import FILTER_PARAMETERS, FILTERS, RUN
+    from cp_stylize.blender.properties import PROPERTY_NAMES, filter_property
+    from cp_stylize.parameters import FILTERS, RUN
 
     rna = registered.bl_rna.properties
-    for parameter in list(RUN.values()) + list(FILTER_PARAMETERS.values()):
-        prop = rna[PROPERTY_NAMES.get(parameter.name, parameter.name)]
-        assert (prop.hard_min, prop.hard_max) == pytest.approx((parameter.minimum, parameter.maximum)), parameter.name
+    table = [(PROPERTY_NAMES.get(p.name, p.name), p, p.default) for p in RUN.values()]
+    table += [(filter_property(mode, p.name), p, f.defaults[p.name]) for mode, f in FILTERS.items() for p in f.parameters]
+    for name, parameter, default in table:
+        prop = rna[name]
+        assert (prop.hard_min, prop.hard_max) == pytest.approx((parameter.minimum, parameter.maximum)), name
         assert prop.name == parameter.label and prop.description == parameter.description
+        assert prop.default == pytest.approx(default, rel=1e-6), name
     assert [item.identifier for item in rna["mode"].enum_items] == list(FILTERS)
+
+
+def test_each_mode_keeps_its_own_parameters(registered):
+    registered.mode = "eed"
+    registered.lambda_rel = 2e-3
+    registered.mode = "perona_malik"
+    assert registered.lambda_rel == pytest.approx(1.0 / 13.0)  # Perona-Malik's own default, not EED's value
+    assert registered.to_settings().lambda_rel == pytest.approx(1.0 / 13.0)
+    registered.mode = "eed"
+    assert registered.lambda_rel == pytest.approx(2e-3) and registered.to_settings().lambda_rel == pytest.approx(2e-3)
+    registered.mode = "gaussian"
+    with pytest.raises(AttributeError, match="mode 'gaussian' has no parameter 'rho'"):
+        registered.rho

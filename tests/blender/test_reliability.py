@@ -199,6 +199,21 @@ def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_befor
     assert_unchanged(before, snapshot())
 
 
+def test_without_xatlas_a_mesh_without_uvs_is_refused_before_the_band_is_built(addon, monkeypatch):
+    import sys
+
+    from cp_stylize import band
+
+    _bare_sphere_with_material()
+    monkeypatch.setitem(sys.modules, "xatlas", None)   # as on a platform the zip has no xatlas wheel for
+    monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
+    before = snapshot()
+    assert run_error() == ("'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
+                           "xatlas, which makes new UV maps, is not installed for this platform and Python: add a "
+                           "UV map to the mesh (for example with Smart UV Project)")
+    assert_unchanged(before, snapshot())
+
+
 # -- 3. a failure after the core has run leaves no trace -----------------------------------------
 
 

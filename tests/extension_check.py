@@ -1,0 +1,123 @@
+"""Install a built cp_stylize zip with Blender's own installer, enable it and stylize two objects.
+
+    python tests/extension_check.py ZIP                       # with the bpy module
+    blender -b --factory-startup --python tests/extension_check.py -- ZIP
+
+Run it with a throw-away user configuration (``HOME=$(mktemp -d)``): the
+extension is installed into the user repository.  SciPy and xatlas must come
+from the zip's wheels: copies elsewhere on the path (a virtual environment's,
+the system's) are hidden.  It checks that enabling the add-on imports no SciPy,
+then runs Starry Night on an image-textured sphere and a Gaussian blur on a
+procedural (checker) sphere, checks both results, and prints one line that
+starts with ``EXTENSION CHECK PASSED``.  Any failure raises.
+"""
+
+import importlib.abc
+import importlib.machinery
+import os
+import sys
+
+import bpy
+import numpy as np
+
+ADDON = "bl_ext.user_default.cp_stylize"
+SHIPPED = ("scipy", "xatlas")
+
+
+class OnlyFromExtensions(importlib.abc.MetaPathFinder):
+    """Find SciPy and xatlas only in this user's extensions' site-packages, where the zip's wheels go."""
+
+    def find_spec(self, name, path=None, target=None):
+        if path is not None or name not in SHIPPED:
+            return None
+        places = [p for p in sys.path if os.path.realpath(p).startswith(user_extensions())]
+        spec = importlib.machinery.PathFinder.find_spec(name, places)
+        if spec is None:
+            raise ImportError(f"{name} is not installed from the extension's wheels (searched {places})")
+        return spec
+
+
+def user_extensions():
+    """The folder of this user's extensions (and of the wheels they install)."""
+    return os.path.realpath(bpy.utils.user_resource("EXTENSIONS"))
+
+
+def _image(size=64):
+    v, u = np.meshgrid(np.linspace(0, 1, size), np.linspace(0, 1, size), indexing="ij")
+    rgba = np.ones((size, size, 4), np.float32)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2] = 0.4 + 0.5 * u, 0.3 + 0.4 * v, 0.3
+    image = bpy.data.images.new("Source", size, size)
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    return image
+
+
+def _material(name, colour_node):
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    node = tree.nodes.new(colour_node)
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    return material, node
+
+
+def _sphere(name, material, x):
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(x, 0.0, 0.0), segments=32, ring_count=16)
+    obj = bpy.context.active_object
+    obj.name = name
+    obj.data.materials.append(material)
+    return obj
+
+
+def _result(obj):
+    image = obj.material_slots[0].material.node_tree.nodes["cp_stylize"].image
+    out = np.empty(image.size[0] * image.size[1] * 4, np.float32)
+    image.pixels.foreach_get(out)
+    return out.reshape(-1, 4)[:, :3]
+
+
+def main(zip_path):
+    import addon_utils
+
+    result = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
+                                                      enable_on_install=True)
+    assert result == {"FINISHED"}, result
+    assert addon_utils.check(ADDON)[1], "the add-on is not enabled"
+    assert "scipy" not in sys.modules, "enabling the add-on imported SciPy"
+    sys.meta_path.insert(0, OnlyFromExtensions())
+
+    settings = bpy.context.scene.cp_stylize
+    settings.image_size = "512"
+    image_material, tex = _material("Photo", "ShaderNodeTexImage")
+    tex.image = _image()
+    photo = _sphere("Photo", image_material, -2.5)
+    assert bpy.ops.object.cp_stylize(preset="starry_night", quality="PREVIEW") == {"FINISHED"}
+    painted = _result(photo)
+    assert (painted[:, 2] > painted[:, 0]).mean() > 0.5, "Starry Night did not bring the painting's blues"
+
+    checker_material, checker = _material("Checker", "ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 6.0
+    procedural = _sphere("Checker", checker_material, 2.5)
+    settings.mode, settings.time, settings.quality = "gaussian", 1e-5, "PREVIEW"
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    grey = _result(procedural).mean(axis=1)
+    covered = grey > 0.01
+    assert grey[covered].max() - grey[covered].min() > 0.3, "the baked checker lost its two tones"
+    assert "cp_stylize bake" not in bpy.data.images and "Checker" in bpy.data.materials
+
+    import scipy
+    import xatlas
+
+    for module in (scipy, xatlas):
+        assert os.path.realpath(module.__file__).startswith(user_extensions()), module.__file__
+    print(f"EXTENSION CHECK PASSED blender={bpy.app.version_string} python={sys.version.split()[0]} "
+          f"numpy={np.__version__} scipy={scipy.__version__} from {os.path.dirname(scipy.__file__)}", flush=True)
+
+
+if __name__ == "__main__":
+    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    main(args[0])
+    if not bpy.app.binary_path and bpy.app.version < (4, 4, 3):
+        os._exit(0)   # Blender 4.2-4.4.2 as a module crash at exit (see tests/blender_support.py)

@@ -1,0 +1,263 @@
+"""Drive a real Blender window through one scenario; run by ``tests/gui/test_window.py``.
+
+    blender --factory-startup --python-use-system-env --python tests/gui/driver.py -- SCENARIO OUT ZIP
+
+The driver works through ``bpy.app.timers``, as a user's clicks would arrive:
+it closes the splash screen, installs the extension zip with Blender's own
+installer, builds a textured sphere, opens the sidebar's Stylize tab, presses
+Stylize through the operator's INVOKE path, and does what the scenario says
+(Esc with xdotool, undo and redo, deleting the object or entering Edit Mode
+while the run works).  It records facts (snapshots of the file, the progress it
+saw, the reports) in ``OUT/result.json`` and screenshots (``import -window
+root``, ImageMagick) in OUT, then quits.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import time
+import traceback
+
+import bpy
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))   # tests/: blender_state, blender_scenes
+
+from blender_scenes import halves, image_material, sphere  # noqa: E402
+from blender_state import differences, snapshot  # noqa: E402
+
+ADDON = "bl_ext.user_default.cp_stylize"
+SCENARIO, OUT, ZIP = sys.argv[sys.argv.index("--") + 1:][:3]
+facts = {"scenario": SCENARIO, "blender": bpy.app.version_string, "screenshots": {}, "steps": []}
+
+
+def log(text):
+    facts["steps"].append(f"{time.perf_counter() - START:6.1f} s  {text}")
+
+
+# -- the window ----------------------------------------------------------------------------------
+
+
+def view3d():
+    """``(window, area, region, sidebar)`` of the 3D viewport."""
+    window = bpy.context.window_manager.windows[0]
+    area = next(a for a in window.screen.areas if a.type == "VIEW_3D")
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    sidebar = next(r for r in area.regions if r.type == "UI")
+    return window, area, region, sidebar
+
+
+def in_view3d(operator, *args, **kwargs):
+    window, area, region, _ = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        return operator(*args, **kwargs)
+
+
+def screenshot(name, region=None):
+    """A screenshot of the whole screen, and of ``region`` (cropped) if given; returns the file's path."""
+    path = os.path.join(OUT, f"{name}.png")
+    subprocess.run(["import", "-window", "root", path], check=True, capture_output=True)
+    if region is not None:
+        window = view3d()[0]
+        top = window.height - (region.y + region.height)
+        crop = os.path.join(OUT, f"{name}_crop.png")
+        subprocess.run(["convert", path, "-crop", f"{region.width}x{region.height}+{region.x}+{top}", "+repage",
+                        crop], check=True, capture_output=True)
+        facts["screenshots"][name + "_crop"] = crop
+    facts["screenshots"][name] = path
+    return path
+
+
+def key(name):
+    """Press a key in the Blender window, as the user would (focus it first: the virtual screen has no
+    window manager to do it)."""
+    found = subprocess.run(["xdotool", "search", "--name", "Blender"], capture_output=True, text=True, timeout=20)
+    for window in found.stdout.split()[:1]:
+        subprocess.run(["xdotool", "windowfocus", "--sync", window, "key", name], check=True, capture_output=True,
+                       timeout=20)
+    log(f"pressed {name}")
+
+
+def reports():
+    """The messages of the window manager's reports, oldest first (through an Info editor and the clipboard)."""
+    window = view3d()[0]
+    area = next(a for a in window.screen.areas if a.type != "VIEW_3D")
+    kind = area.type
+    area.type = "INFO"
+    try:
+        with bpy.context.temp_override(window=window, area=area, region=area.regions[-1]):
+            bpy.ops.info.select_all(action="SELECT")
+            bpy.ops.info.report_copy()
+    finally:
+        area.type = kind
+    return [line for line in bpy.context.window_manager.clipboard.splitlines() if line.strip()]
+
+
+def running():
+    """The add-on's interactive run in progress, or None."""
+    return sys.modules[f"{ADDON}.cp_stylize.blender.operators"]._running
+
+
+# -- set-up --------------------------------------------------------------------------------------
+
+
+def set_up():
+    key("Escape")   # the splash screen
+    yield 0.5
+    screenshot("started")
+    result = bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+    log(f"installed {os.path.basename(ZIP)}: {result}")
+    for obj in list(bpy.data.objects):
+        if obj.type == "MESH":
+            bpy.data.objects.remove(obj)
+    obj = sphere(material=image_material("Painted", halves("source")), segments=48, rings=24)
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    settings = bpy.context.scene.cp_stylize
+    settings.quality, settings.image_size = "PREVIEW", "512"
+    settings.mode, settings.time = "ced", 6e-4   # long enough to act on the run while it works
+    _, area, _, sidebar = view3d()
+    area.spaces.active.show_region_ui = True
+    yield 0.3
+    sidebar.active_panel_category = "Stylize"
+    in_view3d(bpy.ops.ed.undo_push, message="scene ready")
+    yield 0.5
+
+
+def stylize_and_watch(act_at=None, action=None):
+    """Press Stylize (INVOKE) and follow the run; call ``action`` once the progress passes ``act_at``."""
+    result = in_view3d(bpy.ops.object.cp_stylize, "INVOKE_DEFAULT")
+    log(f"Stylize pressed: {sorted(result)}")
+    facts["invoke"] = sorted(result)
+    seen, acted, shot = [], False, False
+    start = time.perf_counter()
+    while running() is not None:
+        fraction = running().fraction
+        seen.append(round(fraction, 3))
+        if not shot and fraction > 0.3:
+            _, _, _, sidebar = view3d()
+            screenshot("running")
+            shot = True
+        if action is not None and not acted and fraction > act_at:
+            log(f"acting at {100 * fraction:.0f} %")
+            action()
+            acted = True
+        if time.perf_counter() - start > 600:
+            raise RuntimeError("the run did not end within 10 minutes")
+        yield 0.1
+    facts["progress"] = seen
+    facts["acted"] = acted
+    log(f"run ended; progress seen {len(seen)} times")
+    yield 0.5
+
+
+# -- scenarios ---------------------------------------------------------------------------------------
+
+
+def scenario_panel():
+    """The sidebar's Stylize tab, with every panel open, for every mode."""
+    panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
+    noise, output = panels.VIEW3D_PT_cp_stylize_noise, panels.VIEW3D_PT_cp_stylize_output
+    for cls in (output, noise):   # open the Noise sub-panel, which starts closed; the order stays
+        bpy.utils.unregister_class(cls)
+    noise.bl_options = set()
+    for cls in (noise, output):
+        bpy.utils.register_class(cls)
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="starry_night")
+    _, area, _, sidebar = view3d()
+    facts["sidebar"] = {"category": sidebar.active_panel_category, "width": sidebar.width,
+                        "height": sidebar.height}
+    modes = [item.identifier for item in bpy.context.scene.cp_stylize.bl_rna.properties["mode"].enum_items]
+    for mode in modes:
+        bpy.context.scene.cp_stylize.mode = mode
+        area.tag_redraw()
+        yield 1.5   # the panels slide into place
+        screenshot(f"panel_{mode}", sidebar)
+    facts["modes"] = modes
+
+
+def scenario_undo():
+    """A run to the end, then undo and redo."""
+    before = snapshot()
+    yield from stylize_and_watch()
+    facts["reports"] = []
+    done = snapshot()
+    facts["changed_by_run"] = differences(before, done)
+    screenshot("finished")
+    in_view3d(bpy.ops.ed.undo)
+    yield 0.5
+    facts["after_undo"] = differences(before, snapshot())
+    in_view3d(bpy.ops.ed.redo)
+    yield 0.5
+    facts["after_redo"] = differences(done, snapshot())
+    facts["reports"] = reports()
+
+
+def scenario_escape():
+    """Esc while the run works."""
+    before = snapshot()
+    yield from stylize_and_watch(0.2, lambda: key("Escape"))
+    facts["changed"] = differences(before, snapshot())
+    facts["reports"] = reports()
+
+
+def scenario_delete():
+    """The object deleted while the run works."""
+    state = {}
+
+    def delete():
+        in_view3d(bpy.ops.object.delete)
+        state["deleted"] = snapshot()
+
+    yield from stylize_and_watch(0.2, delete)
+    facts["changed"] = differences(state["deleted"], snapshot())
+    facts["ball_exists"] = "Ball" in bpy.data.objects
+    facts["reports"] = reports()
+
+
+def scenario_edit_mode():
+    """Edit Mode entered while the run works."""
+    state = {}
+
+    def edit():
+        in_view3d(bpy.ops.object.mode_set, mode="EDIT")
+        state["editing"] = snapshot()
+
+    yield from stylize_and_watch(0.2, edit)
+    facts["mode"] = bpy.context.active_object.mode
+    facts["changed"] = differences(state["editing"], snapshot())
+    screenshot("edit_mode_refused")
+    facts["reports"] = reports()
+    in_view3d(bpy.ops.object.mode_set, mode="OBJECT")
+
+
+# -- the timer loop ------------------------------------------------------------------------------------
+
+
+def steps():
+    yield from set_up()
+    yield from globals()[f"scenario_{SCENARIO}"]()
+
+
+def finish():
+    with open(os.path.join(OUT, "result.json"), "w", encoding="utf-8") as fh:
+        json.dump(facts, fh, indent=1)
+    bpy.ops.wm.quit_blender()
+
+
+def tick():
+    try:
+        return next(STEPS)
+    except StopIteration:
+        finish()
+    except Exception:
+        facts["error"] = traceback.format_exc()
+        finish()
+    return None
+
+
+START = time.perf_counter()
+os.makedirs(OUT, exist_ok=True)
+STEPS = steps()
+bpy.app.timers.register(tick, first_interval=1.0)

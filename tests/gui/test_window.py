@@ -1,0 +1,115 @@
+"""The add-on in a real Blender window: the sidebar, the Stylize button's modal run, Esc, undo and redo,
+and the object deleted or put in Edit Mode while the run works.
+
+Each test starts a Blender binary (``$CP_STYLIZE_BLENDER``, else ``blender`` on the PATH) in a window on
+the X display ``$DISPLAY``, with a throw-away user configuration, and lets ``driver.py`` install the
+extension zip (``$CP_STYLIZE_ZIP``, else one built here) and work through a scenario.  Screenshots go to
+a folder the tests print (``$CP_STYLIZE_SCREENSHOTS``, else a temporary one).  Run them on a virtual
+screen with ``tools/real_blender.sh run --gui python3 -m pytest tests/gui``; without a display or a
+Blender binary they are skipped.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+DRIVER = os.path.join(ROOT, "tests", "gui", "driver.py")
+BLENDER = os.environ.get("CP_STYLIZE_BLENDER") or shutil.which("blender")
+
+pytestmark = [
+    pytest.mark.window,
+    pytest.mark.skipif(not os.environ.get("DISPLAY") or not BLENDER,
+                       reason="needs an X display and a Blender binary (tools/real_blender.sh run --gui)"),
+]
+
+
+@pytest.fixture(scope="session")
+def screenshots():
+    folder = os.environ.get("CP_STYLIZE_SCREENSHOTS") or tempfile.mkdtemp(prefix="cp_stylize_screenshots_")
+    os.makedirs(folder, exist_ok=True)
+    print(f"\nscreenshots: {folder}")
+    return folder
+
+
+@pytest.fixture(scope="session")
+def extension_zip(tmp_path_factory):
+    given = os.environ.get("CP_STYLIZE_ZIP")
+    if given:
+        return given
+    out = tmp_path_factory.mktemp("dist")
+    subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"), "--out", str(out),
+                    "--platforms", "linux-x64", "--blender", BLENDER], check=True, capture_output=True, timeout=1800)
+    (path,) = out.glob("*.zip")
+    return str(path)
+
+
+def drive(scenario, screenshots, extension_zip, tmp_path):
+    """Run ``driver.py`` through ``scenario``; returns its facts (raises on a failed scenario)."""
+    out = os.path.join(screenshots, scenario)
+    shutil.rmtree(out, ignore_errors=True)
+    env = dict(os.environ, HOME=str(tmp_path / "home"), PYTHONPATH=ROOT)
+    os.makedirs(env["HOME"])
+    proc = subprocess.run([BLENDER, "--factory-startup", "--python-use-system-env", "--python", DRIVER, "--",
+                           scenario, out, extension_zip], env=env, capture_output=True, text=True, timeout=900)
+    path = os.path.join(out, "result.json")
+    assert os.path.isfile(path), f"the driver wrote no result:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    with open(path, encoding="utf-8") as fh:
+        facts = json.load(fh)
+    assert "error" not in facts, facts["error"] + "\n" + "\n".join(facts["steps"])
+    print("\n".join(facts["steps"]))
+    for name, shot in sorted(facts["screenshots"].items()):
+        print(f"  {name}: {shot}")
+    return facts
+
+
+def messages(facts):
+    """The add-on's own reports (the operator calls the window also reports are left out)."""
+    return [line for line in facts["reports"] if not line.startswith("bpy.ops.")]
+
+
+def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension_zip, tmp_path):
+    facts = drive("panel", screenshots, extension_zip, tmp_path)
+    assert facts["sidebar"]["category"] == "Stylize"
+    assert facts["modes"] == ["ced", "eed", "perona_malik", "gaussian", "beltrami"]
+    for mode in facts["modes"]:
+        assert os.path.getsize(facts["screenshots"][f"panel_{mode}_crop"]) > 10_000, mode
+
+
+def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(screenshots, extension_zip, tmp_path):
+    facts = drive("undo", screenshots, extension_zip, tmp_path)
+    assert facts["invoke"] == ["RUNNING_MODAL"]
+    progress = facts["progress"]
+    assert len(set(progress)) >= 4 and progress == sorted(progress) and progress[-1] >= 0.95
+    assert "images.Ball_stylized: added" in facts["changed_by_run"]
+    assert "materials.Painted_stylized: added" in facts["changed_by_run"]
+    assert facts["after_undo"] == []   # undo: exactly the state before the run
+    assert facts["after_redo"] == []   # redo: exactly the stylized state
+    assert messages(facts)[-1].startswith("stylized 'Ball' into 'Ball_stylized' in ")
+
+
+def test_esc_mid_run_changes_nothing(screenshots, extension_zip, tmp_path):
+    facts = drive("escape", screenshots, extension_zip, tmp_path)
+    assert facts["acted"] and max(facts["progress"]) < 0.95
+    assert facts["changed"] == []
+    assert messages(facts)[-1] == "stylize cancelled; nothing was changed"
+
+
+def test_deleting_the_object_mid_run_changes_nothing_else(screenshots, extension_zip, tmp_path):
+    facts = drive("delete", screenshots, extension_zip, tmp_path)
+    assert facts["acted"] and not facts["ball_exists"]
+    assert facts["changed"] == []
+    assert messages(facts)[-1] == "'Ball' was deleted or renamed while it was being stylized; nothing was changed"
+
+
+def test_edit_mode_mid_run_changes_nothing(screenshots, extension_zip, tmp_path):
+    facts = drive("edit_mode", screenshots, extension_zip, tmp_path)
+    assert facts["acted"] and facts["mode"] == "EDIT"
+    assert facts["changed"] == []
+    assert messages(facts)[-1] == ("'Ball' is in Edit Mode; nothing was changed: leave Edit Mode and press "
+                                   "Stylize again")
