@@ -1,29 +1,32 @@
-"""Command line: ``python -m cp_stylize {demo,bench} ...``."""
+"""Command line: ``python -m cp_stylize {demo,paper,bench} ...`` (from a checkout: the tools live in
+``cp_stylize_dev``, which the extension does not ship)."""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 
-def _demo(args):
+def _tool(name):
+    """A development tool of ``cp_stylize_dev`` (in a checkout only)."""
     try:
-        from .blender import demo
+        return importlib.import_module(f"cp_stylize_dev.{name}")
     except ImportError as err:
-        sys.exit(f"the demo needs Blender's Python module (pip install -r requirements.txt): {err}")
-    demo.run(args.out, preset=args.preset, quality=args.quality.upper(), image_size=args.size)
+        sys.exit(f"`{name}` needs a checkout of cp_stylize with its requirements installed "
+                 f"(pip install -r requirements.txt): {err}")
+
+
+def _demo(args):
+    _tool("demo").run(args.out, preset=args.preset, quality=args.quality.upper(), image_size=args.size)
 
 
 def _paper(args):
-    from . import paper
-
-    paper.run(args.out, h=args.h, scheme=args.scheme)
+    _tool("paper").run(args.out, h=args.h, scheme=args.scheme)
 
 
 def _bench(args):
-    from . import bench
-
-    bench.run(quick=args.quick, json_path=args.json)
+    _tool("bench").run(quick=args.quick, json_path=args.json)
 
 
 def main(argv=None):

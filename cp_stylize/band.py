@@ -33,7 +33,6 @@ the anisotropic scheme (paper, eq. (51)) reads diagonal neighbours and needs
 from __future__ import annotations
 
 import itertools
-import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -190,10 +189,7 @@ class Band:
         self._index[tuple((self.ijk - self._lo).T)] = np.arange(self.size)
         self._matrices = {}
         self._stencil_table = None
-        start = time.perf_counter()
         self.E = self._interpolation_matrix(self.cp, np.float32)
-        #: Seconds of the build's stages: ``closest_points`` (the search for the band), ``E``.
-        self.timings = {"E": time.perf_counter() - start}
         self.inner = np.zeros(self.size, dtype=bool)
         self.inner[self.E.indices] = True
         self._check_stencils()
@@ -235,7 +231,6 @@ class Band:
         if safety < 1:
             raise ValueError(f"safety factor must be >= 1, got {safety!r}")
         width = band_width(h, degree, stencil) * safety
-        start = time.perf_counter()
         on_faces = getattr(surface, "closest_point_on_faces", None)
         own = getattr(surface, "band_points", None)
         parts = []
@@ -250,10 +245,7 @@ class Band:
             raise ValueError(f"the band of {surface!r} at h={h!r} holds no grid point")
         ijk, cp, dist, *faces = (np.concatenate(a) for a in zip(*parts))
         face, bary = faces if faces else (None, None)
-        search = time.perf_counter() - start
-        band = cls(surface, h, ijk, cp, dist, width=width, stencil=stencil, degree=degree, face=face, bary=bary)
-        band.timings["closest_points"] = search
-        return band
+        return cls(surface, h, ijk, cp, dist, width=width, stencil=stencil, degree=degree, face=face, bary=bary)
 
     def __repr__(self):
         return f"Band(size={self.size}, h={self.h!r}, width={self.width:.4g}, stencil={self.stencil!r})"

@@ -100,7 +100,7 @@ class StylizeResult:
     band_size: int
     spacing: float           # grid spacing in the mesh's own units
     seconds: float
-    timings: dict = dataclasses.field(default_factory=dict)  # seconds: band (band_E of it), bake_in, diffusion, bake_out
+    timings: dict = dataclasses.field(default_factory=dict)  # seconds: atlas, band, bake_in, diffusion, bake_out
 
 
 def sample_colours(band, colours, channels=3):
@@ -120,7 +120,7 @@ def sample_colours(band, colours, channels=3):
 
 
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
-            progress=None, log=None, on_band=None):
+            progress=None, log=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
 
     Parameters
@@ -142,8 +142,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         The diffusion's time stepping (see :func:`cp_stylize.diffuse`).
     progress : callable, optional
         ``progress(fraction)``; an exception it raises stops the run.
-    on_band : callable, optional
-        Called with the band once it is built (used by the benchmark).
+    log : callable, optional
+        ``log(message)`` for what the run finds on its way (skipped faces, the band's size).
     """
     start = time.perf_counter()
     timings = {}
@@ -166,11 +166,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     lap("atlas")
     band = Band.build(mesh, settings.spacing, stencil=stencil_for(settings.mode))
     lap("band")
-    timings["band_E"] = band.timings["E"]  # part of "band"
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
-    if on_band is not None:
-        on_band(band)
-        clock[0] = time.perf_counter()
     report(0.1)
     values = sample_colours(band, colours)
     if settings.noise_fraction > 0:

@@ -68,6 +68,17 @@ def test_linux_zip_validates_and_ships_scipy_and_xatlas_for_both_pythons_but_not
     assert "__init__.py" in names and "cp_stylize/blender/operators.py" in names
 
 
+def test_the_zip_holds_only_the_add_on_and_the_core(linux_zip):
+    with zipfile.ZipFile(linux_zip) as zf:
+        names = {n for n in zf.namelist() if not n.endswith("/") and not n.startswith("wheels/")}
+    core = {os.path.relpath(os.path.join(folder, f), ROOT).replace(os.sep, "/")
+            for folder, dirs, files in os.walk(os.path.join(ROOT, "cp_stylize")) for f in files if f.endswith(".py")}
+    presets = {f"presets/{f}" for f in os.listdir(os.path.join(ROOT, "presets")) if f.endswith(".toml")}
+    product = {"blender_manifest.toml", "__init__.py"} | (core - {"cp_stylize/__main__.py"}) | presets
+    assert names == product, (sorted(names - product), sorted(product - names))
+    assert not any(n.startswith(("cp_stylize_dev/", "tests/", "tools/")) for n in names)
+
+
 def test_committed_manifest_stays_without_wheels(linux_zip):
     with open(os.path.join(ROOT, "blender_manifest.toml"), "rb") as fh:
         manifest = tomllib.load(fh)

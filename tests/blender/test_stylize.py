@@ -5,7 +5,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from blender_scenes import node_material, procedural_material  # noqa: E402
+from blender_scenes import image_material, node_material, procedural_material, sphere  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -42,11 +42,9 @@ def _warm_blobs(size=256):
 
 
 def _textured_sphere(image=None, name="Ball"):
-    from cp_stylize.blender import scene
-
     image = image or _gradient_image()
-    material = scene.new_material("Painted", image)
-    obj = scene.add_uv_sphere(name, radius=1.0, material=material, segments=48, rings=24)
+    material = image_material("Painted", image)
+    obj = sphere(name, material, segments=48, rings=24)
     return obj, material, image
 
 
@@ -106,9 +104,7 @@ def test_starry_night_on_an_image_textured_sphere(addon):
 
 
 def test_a_procedural_material_is_baked_then_stylized(addon):
-    from cp_stylize.blender import scene
-
-    obj = scene.add_uv_sphere("Checkers", radius=1.0, segments=32, rings=16)
+    obj = sphere("Checkers")
     material = procedural_material()
     obj.data.materials.append(material)
     images_before = set(bpy.data.images.keys())
@@ -125,9 +121,7 @@ def test_a_procedural_material_is_baked_then_stylized(addon):
 
 
 def test_an_object_without_uvs_gets_an_atlas(addon):
-    from cp_stylize.blender import scene
-
-    obj = scene.add_uv_sphere("Bare", radius=1.0, segments=32, rings=16)
+    obj = sphere("Bare")
     while obj.data.uv_layers:
         obj.data.uv_layers.remove(obj.data.uv_layers[0])
     attr = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
@@ -147,8 +141,6 @@ def test_an_object_without_uvs_gets_an_atlas(addon):
 
 
 def test_an_object_with_two_materials(addon):
-    from cp_stylize.blender import scene
-
     obj, painted, source = _textured_sphere(name="Duo")
     plain = node_material("Plain")
     next(n for n in plain.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Base Color"].default_value = (
@@ -172,8 +164,6 @@ def test_an_object_with_two_materials(addon):
 
 def _error_case(name, addon):
     """Set up the scene for an error case; returns the operator call."""
-    from cp_stylize.blender import scene
-
     if name == "no active object":
         bpy.ops.object.empty_add()
         bpy.context.view_layer.objects.active = None

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from cp_stylize import figures, paper
+from cp_stylize_dev import figures, paper
 
 
 def test_fig4_at_a_coarse_grid_writes_the_figure_and_its_table(tmp_path):

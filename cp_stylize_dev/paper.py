@@ -20,11 +20,12 @@ import time
 
 import numpy as np
 
+from cp_stylize.band import Band
+from cp_stylize.diffusion import diffuse
+from cp_stylize.surfaces import Sphere, Torus
+from cp_stylize.texture import bake_map
+
 from . import figures
-from .band import Band
-from .diffusion import diffuse
-from .surfaces import Sphere, Torus
-from .texture import bake_map
 
 FIG4 = {
     "gaussian": {},

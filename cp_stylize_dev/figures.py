@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .texture import write_png
+from cp_stylize.texture import write_png
 
 # 5x7 bitmap glyphs, one string of 7 rows of 5 bits per character
 _GLYPHS = {

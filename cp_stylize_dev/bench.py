@@ -33,10 +33,10 @@ import time
 
 import numpy as np
 
-from .band import Band
-from .heat_flow import heat
-from .sparse import workers
-from .surfaces import Sphere, Torus
+from cp_stylize.band import Band
+from cp_stylize.heat_flow import heat
+from cp_stylize.sparse import workers
+from cp_stylize.surfaces import Sphere, Torus
 
 SCHEMES = ("reference", "fast")
 
@@ -60,6 +60,13 @@ def _peak_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
 
 
+def _e_seconds(band):
+    """Seconds to build the band's extension matrix E (the part of the band's build that interpolates)."""
+    start = time.perf_counter()
+    band.interpolation_matrix(band.cp)
+    return time.perf_counter() - start
+
+
 def _extend_seconds(band, channels):
     state = np.random.default_rng(0).random((band.size, channels)).astype(np.float32)
     band.extend(state)  # warm: the split matrix is made once
@@ -70,9 +77,10 @@ def _extend_seconds(band, channels):
 
 
 def run_torus(scheme, quick):
-    from .diffusion import PAPER_CFL, diffuse
+    from cp_stylize.diffusion import PAPER_CFL, diffuse
+    from cp_stylize.texture import bake_map
+
     from .paper import FIG4, torus_stripes
-    from .texture import bake_map
 
     size = SIZES["torus"]["quick" if quick else "full"]
     h, steps = size["h"], size["steps"]
@@ -81,7 +89,7 @@ def run_torus(scheme, quick):
     torus = Torus(1.0, 0.4)
     band = Band.build(torus, h, stencil="anisotropic")
     times["band"] = time.perf_counter() - start
-    times["band_E"] = band.timings["E"]
+    times["band_E"] = _e_seconds(band)
     start = time.perf_counter()
     band.laplacian_matrix()
     times["L"] = time.perf_counter() - start
@@ -101,10 +109,11 @@ def run_torus(scheme, quick):
 
 
 def run_suzanne(scheme, quick, data):
-    from .diffusion import PAPER_CFL
-    from .heat_flow import time_steps
-    from .pipeline import ColourInput, stylize
-    from .presets import load_preset
+    from cp_stylize.diffusion import PAPER_CFL
+    from cp_stylize.heat_flow import time_steps
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.pipeline import ColourInput, normalisation, stencil_for, stylize
+    from cp_stylize.presets import load_preset
 
     size = SIZES["suzanne"]["quick" if quick else "full"]
     arrays = np.load(data)
@@ -114,17 +123,18 @@ def run_suzanne(scheme, quick, data):
         settings = settings.replace(T=settings.T * scale, sigma=settings.sigma * scale, rho=settings.rho * scale)
     settings = settings.replace(spacing=size["h"], image_size=size["size"])
     colours = ColourInput(textures=[(arrays["image"], arrays["uvs"], np.ones(len(arrays["faces"]), bool))])
-    limit = {}
-
-    def on_band(band):
-        if scheme == "fast":
-            limit["extend"] = _extend_seconds(band, 3)
-
-    result = stylize(arrays["vertices"], arrays["faces"], colours, settings, uvs=arrays["uvs"],
-                     scheme=scheme, on_band=on_band)
+    result = stylize(arrays["vertices"], arrays["faces"], colours, settings, uvs=arrays["uvs"], scheme=scheme)
     steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing**2)
     covered = result.image.reshape(-1, result.image.shape[-1])[result.atlas.texels]
-    return result.band_size, steps, dict(result.timings), covered, limit.get("extend")
+    times = dict(result.timings)
+    times["bake_out"] += times.pop("atlas")   # the atlas is part of the bake-out, as in the torus case
+    # the same band once more, after the run: its E alone, and the limit (one extension of the state)
+    centre, scale = normalisation(arrays["vertices"], arrays["faces"])
+    band = Band.build(TriangleMesh((arrays["vertices"] - centre) * scale, arrays["faces"]), settings.spacing,
+                      stencil=stencil_for(settings.mode))
+    times["band_E"] = _e_seconds(band)
+    limit = _extend_seconds(band, 3) if scheme == "fast" else None
+    return result.band_size, steps, times, covered, limit
 
 
 def worker(case, scheme, quick, data, out):
@@ -143,7 +153,7 @@ def worker(case, scheme, quick, data, out):
 
 def _suzanne_arrays(folder, log):
     path = os.path.join(folder, "suzanne.npz")
-    code = f"from cp_stylize.blender.demo import save_mesh_arrays; save_mesh_arrays({path!r})"
+    code = f"from cp_stylize_dev.demo import save_mesh_arrays; save_mesh_arrays({path!r})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=_root())
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
@@ -157,7 +167,7 @@ def _root():
 
 
 def _run_worker(case, scheme, quick, data, out):
-    cmd = [sys.executable, "-m", "cp_stylize.bench", "--worker", case, scheme, out]
+    cmd = [sys.executable, "-m", "cp_stylize_dev.bench", "--worker", case, scheme, out]
     if quick:
         cmd.append("--quick")
     if data:
@@ -249,7 +259,7 @@ def _table(report, log):
 def main(argv=None):
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m cp_stylize.bench")
+    parser = argparse.ArgumentParser(prog="python -m cp_stylize_dev.bench")
     parser.add_argument("--worker", nargs=3, metavar=("CASE", "SCHEME", "OUT"))
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--data")

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import images
+from cp_stylize.blender import images
 
 
 def reset():
@@ -24,7 +24,7 @@ def studio_photo_path(name="forest"):
 
 def photo_texture(name="forest"):
     """A Blender studio-light panorama, tone-mapped to sRGB values in [0, 1]: (H, W, 3) float32."""
-    from ..texture import linear_to_srgb
+    from cp_stylize.texture import linear_to_srgb
 
     image = bpy.data.images.load(studio_photo_path(name), check_existing=False)
     try:

@@ -5,7 +5,7 @@ Speed is reported by ``python -m cp_stylize bench``, never asserted here.
 
 import json
 
-from cp_stylize import bench
+from cp_stylize_dev import bench
 
 
 def test_quick_benchmark_reports_every_figure(tmp_path):

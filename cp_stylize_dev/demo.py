@@ -11,7 +11,9 @@ import time
 
 import bpy
 
-from . import images, scene
+from cp_stylize.blender import images
+
+from . import scene
 
 
 def build_scene(texture_name="forest"):
@@ -34,8 +36,8 @@ def build_scene(texture_name="forest"):
 def run(out_dir, *, preset="starry_night", quality="STANDARD", image_size="1024", resolution=(480, 400),
         samples=16, log=print):
     """Run the demo and write its four files into ``out_dir``; returns their paths."""
-    from . import register, unregister
-    from ..texture import write_png
+    from cp_stylize.blender import register, unregister
+    from cp_stylize.texture import write_png
 
     os.makedirs(out_dir, exist_ok=True)
     obj, material, source = build_scene()
@@ -79,8 +81,8 @@ def save_mesh_arrays(path, texture_name="forest"):
     """
     import numpy as np
 
-    from .stylize import prepare
-    from ..presets import StylizeSettings
+    from cp_stylize.blender.stylize import prepare
+    from cp_stylize.presets import StylizeSettings
 
     obj, _, _ = build_scene(texture_name)
     job = prepare(obj, StylizeSettings())
