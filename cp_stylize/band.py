@@ -400,8 +400,9 @@ class Band:
         coef = np.full(k, 1.0 / self.h**2)
         coef[0] = -(k - 1) / self.h**2
         data = np.tile(coef, int(full.sum())).astype(dtype)
-        return sp.csr_matrix((data, nbr[full].ravel().astype(self.E.indices.dtype), indptr),
-                             shape=(self.size, self.size))
+        L = sp.csr_matrix((data, nbr[full].ravel().astype(self.E.indices.dtype), indptr), shape=(self.size, self.size))
+        L.sort_indices()  # canonical: products sum each row in column order, whatever touched L before
+        return L
 
     def _check_stencils(self):
         """Every point E reads must have its whole finite difference stencil in the band."""

@@ -10,10 +10,12 @@
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
-and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  Two schemes take these
-steps: ``"reference"``, Algorithm 1 as written, and ``"fast"`` (the default),
-which makes G from grid Gaussians, rebuilds it only when the values have
-changed, and runs the sparse products on all cores.
+and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One flow (:class:`_Flow`)
+takes these steps for both schemes; they differ only in how the structure
+tensor's smoothings are done (:class:`HeatSmoothing`, Algorithm 1 as written,
+for ``"reference"``; :class:`GridSmoothing`, grid Gaussians, for ``"fast"``, the
+default) and in ``lag`` (the fast scheme rebuilds G only when the values have
+changed; the reference at every step).  The sparse products run on all cores.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from .parameters import DEFAULTS, MODES
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
-from .structure import eigen_2x2, outer_products, reduce_to_tangent, structure_tensor
+from .structure import eigen_2x2, invariants, outer_products, products, reduce_to_tangent, structure_tensor
 from .tangent import tangent_basis
 
 __all__ = ["diffuse", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
@@ -41,8 +43,6 @@ PAPER_CFL = 0.15
 LAG = 0.02
 
 _TINY = 1e-30
-
-_COMPONENT = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
 
 
 def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, lambda_rel=None,
@@ -172,71 +172,181 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
     u0 = band._check_values(u0)
     if not np.all(np.isfinite(u0)):
         raise ValueError("u0 holds NaN or infinite values")
-    h2 = band.h**2
-    tau = PAPER_CFL * h2 if tau is None else float(tau)
+    tau = PAPER_CFL * band.h**2 if tau is None else float(tau)
     n_steps, tau = time_steps(T, tau)
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
+    if n_steps == 0:
+        return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
     lo, hi = rows.min(axis=1, keepdims=True), rows.max(axis=1, keepdims=True)
-    if n_steps and scheme == "reference":
-        flow = _Flow(band, rows.dtype, mode, params, PAPER_CFL * h2, normals)
-        flow.normalise(rows)
-        E = band.extension_matrix(rows.dtype)
-        for step in range(n_steps):
+    smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
+    flow = _Flow(band, rows.dtype, mode, params, normals, smoothing)
+    flow.normalise(rows)
+    lag = 0.0 if scheme == "reference" else lag
+    inner = band.inner
+    span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
+    built_from = None
+    for step in range(n_steps):
+        if built_from is None or _rms_change(rows, built_from, inner, span) > lag:
             report = None if progress is None else (lambda f, s=step: progress((s + 0.9 * f) / n_steps))
             A, extra = flow.operator(rows, report)
-            _step(rows, A, extra, flow.laplacian, E, tau, DivergenceOperator.stable_step(A), clamp and (lo, hi))
-            _check(rows, step, n_steps, progress)
-    elif n_steps:
-        flow = _FastFlow(band, rows.dtype, mode, params, normals)
-        flow.normalise(rows)
-        inner = band.inner
-        span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
-        built_from = None
-        for step in range(n_steps):
-            if built_from is None or _rms_change(rows, built_from, inner, span) > lag:
-                A, extra = flow.operator(rows)
-                built_from = rows[:, inner].copy() if lag > 0 else None
-            _step(rows, A, extra, flow.laplacian, flow.E, tau, flow.stable_step, clamp and (lo, hi))
-            _check(rows, step, n_steps, progress)
+            built_from = rows[:, inner].copy() if lag > 0 else None
+        _step(rows, A, extra, flow.laplacian, flow.E, tau, flow.stable_step, clamp and (lo, hi))
+        _check(rows, step, n_steps, progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
 
 
-class _Flow:
-    """Builds the step operator of one mode from the current values."""
+class HeatSmoothing:
+    """The structure tensor as Algorithm 1 writes it (``scheme="reference"``).
 
-    def __init__(self, band, dtype, mode, params, smoothing_dt, normals):
-        self.band, self.dtype, self.mode, self.params = band, dtype, mode, params
-        self.smoothing_dt = smoothing_dt
-        self.laplacian = band.laplacian_matrix(dtype)
+    The smoothings to times ``sigma`` and ``rho`` are closest point heat flows
+    (steps of ``0.15 h^2``), the products ``grad v grad v^T`` are extended
+    component by component, and G is computed in float64.
+    """
+
+    def __init__(self, band, dtype, params):
+        self.band, self.params, self.dtype = band, params, dtype
+        self.work = np.dtype(np.float64)
+        self.dt = PAPER_CFL * band.h**2
+
+    def builds(self):
+        """What to build before the first step (the flow builds them side by side)."""
+        return [self._build_gradients]
+
+    def _build_gradients(self):
+        self.gradients = gradient_matrices(self.band, self.dtype)
+
+    def presmoothed(self, rows):
+        """``u_sigma``: a heat flow to ``sigma`` of a copy of ``rows`` (C, N)."""
+        if self.params["sigma"] == 0:
+            return rows
+        smoothed = rows.copy()
+        heat_rows(self.band, smoothed, self.params["sigma"], dt=self.dt)
+        return smoothed
+
+    def tensor(self, rows, progress=None):
+        """``J_{sigma,rho}`` (6, N) of band values ``rows`` (C, N), extended over the band."""
+        p = self.params
+        return structure_tensor(self.band, rows, p["sigma"], p["rho"], self.gradients, dt=self.dt, progress=progress)
+
+    def gradient_scale(self, rows):
+        """``||grad u_sigma||_inf``, the scale of lambda for Perona-Malik and Beltrami (section 4.5)."""
+        J = outer_products(self.band, self.presmoothed(rows), self.gradients)
+        return float(np.sqrt(max(float(invariants(J)[0].max()), 0.0)))
+
+    def invariants(self, rows, second):
+        """Trace (and, if ``second``, second invariant) of ``grad v grad v^T`` of ``rows`` (C, N), in float64."""
+        trace, det = invariants(outer_products(self.band, rows, self.gradients).astype(np.float64))
+        return np.maximum(trace, 0.0), (np.maximum(det, 0.0) if second else None)
+
+
+class GridSmoothing:
+    """The structure tensor from Gaussians on the grid (``scheme="fast"``), in the values' precision.
+
+    ``sigma``: a Gaussian of deviation ``sqrt(2 sigma)`` on the band, by three
+    sparse passes (:class:`~cp_stylize.smoothing.GaussianSmoother`); ``rho``: on
+    a box grid up to four times coarser (:class:`~cp_stylize.smoothing.GridGaussian`),
+    which also extends the tensor off the surface.  Gradients have rows at every
+    point whose neighbours are in the band; Perona-Malik and Beltrami extend
+    their invariants (one or two E products instead of six).
+    """
+
+    def __init__(self, band, dtype, params):
+        self.band, self.params, self.dtype = band, params, np.dtype(dtype)
+        self.work = self.dtype
+        self.E = band.split_matrix("E", dtype)
+
+    def builds(self):
+        return [self._build_presmooth, self._build_gradients] + [self._build_postsmooth] * ("rho" in self.params)
+
+    def _build_gradients(self):
+        # gradients wherever the band has the points: around the surface and at every point E reads
+        self.gradients = [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")]
+
+    def _build_presmooth(self):
+        sigma, band = self.params.get("sigma", 0.0), self.band
+        self._presmooth = None
+        if sigma > 0:
+            self._presmooth = GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype)
+
+    def _build_postsmooth(self):
+        # the tensor from a shell of three spacings about the surface; a rho narrower than a
+        # grid spacing would not reach the band's rim, and E extends the raw tensor instead
+        rho, band = self.params["rho"], self.band
+        self._postsmooth = None
+        if np.sqrt(2.0 * rho) >= band.h:
+            self._postsmooth = GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype)
+
+    def presmoothed(self, rows):
+        return rows if self._presmooth is None else self._presmooth(rows)
+
+    def tensor(self, rows, progress=None):
+        J = products(self.presmoothed(rows), self.gradients)
+        if self._postsmooth is not None:
+            return self._postsmooth(J)
+        return np.stack([self.E @ j for j in J])
+
+    def invariants(self, rows, second):
+        trace, det = invariants(products(rows, self.gradients))
+        return np.maximum(self.E @ trace, 0), (np.maximum(self.E @ det, 0) if second else None)
+
+    def gradient_scale(self, rows):
+        return float(np.sqrt(float(self.invariants(self.presmoothed(rows), False)[0].max())))
+
+
+class _Flow:
+    """Builds the step operator ``A(G)`` of one mode from the current values (Algorithm 1, steps 2-8).
+
+    The structure tensor's smoothings come from ``smoothing``
+    (:class:`HeatSmoothing` or :class:`GridSmoothing`); everything else, the
+    tangent reduction, the diffusivities, G and the 19-point weights, is the
+    same for both schemes, computed in the smoothing's precision.
+    """
+
+    def __init__(self, band, dtype, mode, params, normals, smoothing):
+        self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
+        self.normals = normals
+        self.E = band.split_matrix("E", dtype)
+        self.laplacian = band.split_matrix("L", dtype) if mode in ("gaussian", "beltrami") else None
         self.scale = 0.0
         self._initial = None
         if mode == "gaussian":
+            self.stable_step = DivergenceOperator.stable_step(band.laplacian_matrix(dtype))
             return
-        self.divergence = DivergenceOperator(band, dtype)
-        self.gradients = gradient_matrices(band, dtype)
-        if mode in ("eed", "ced"):
-            self.Q = tangent_basis(band, normals)
-            self.P = _projector(self.Q)
+        self.smoothing = smoothing(band, dtype, {k: params[k] for k in DEFAULTS[mode]})  # the mode's own
+        self.work = self.smoothing.work
+        # the parts are independent: build them side by side on the worker threads, the large ones first
+        smoothing_parts = self.smoothing.builds()
+        parts = smoothing_parts[:1] + [self._build_divergence] + smoothing_parts[1:]
+        map_parallel(lambda build: build(), parts + [self._build_tangents] * (mode in ("eed", "ced")))
+
+    def _build_divergence(self):
+        self.divergence = DivergenceOperator(self.band, self.dtype)
+        self._A = self.divergence.template()
+        self.A = SplitMatrix(self._A)
+
+    def _build_tangents(self):
+        Q = tangent_basis(self.band, self.normals)
+        self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
 
     def normalise(self, rows):
         """Scale-free parameters from the initial data (section 4.5)."""
-        p = self.params
         if self.mode in ("eed", "ced"):
             self._initial = self._coherence(rows)  # the first step reuses it
             self.scale = float(self._initial[0].max())
         elif self.mode in ("perona_malik", "beltrami"):
-            smoothed = rows.copy()
-            heat_rows(self.band, smoothed, p["sigma"], dt=self.smoothing_dt)
-            J = outer_products(self.band, smoothed, self.gradients)
-            self.scale = float(np.sqrt(max(float((J[0] + J[1] + J[2]).max()), 0.0)))
+            self.scale = self.smoothing.gradient_scale(rows)
 
     def _coherence(self, rows, progress=None):
-        p = self.params
-        J = structure_tensor(self.band, rows, p["sigma"], p["rho"], self.gradients,
-                             dt=self.smoothing_dt, progress=progress)
-        a, b, d = reduce_to_tangent(J.astype(np.float64), self.Q)
-        mu1, mu2, c1, s1 = eigen_2x2(a, b, d)
-        return np.maximum(mu1 - mu2, 0.0), c1, s1
+        """``(c, c1, s1)``: the coherence ``mu1 - mu2`` and the direction of ``mu1`` of ``J~`` (eqs. (25)-(26))."""
+        J = self.smoothing.tensor(rows, progress).astype(self.work, copy=False)
+        mu1, mu2, c1, s1 = eigen_2x2(*reduce_to_tangent(J, *self.Q))
+        return np.maximum(mu1 - mu2, 0), c1, s1
+
+    def _fill(self, G):
+        """A with the 19-point weights of the tensor field G (6, N), and its stable step (Gershgorin)."""
+        self.divergence.fill(G, self._A.data)
+        self.stable_step = gershgorin_step(np.abs(self._A.data).reshape(-1, 19).sum(axis=1))
+        return self.A
 
     def operator(self, rows, progress=None):
         """``(A, extra)``: the step is ``v + dt (A v + extra * L v)`` (extra None but for Beltrami)."""
@@ -246,30 +356,36 @@ class _Flow:
             return self.laplacian, None
         p = self.params
         if self.mode in ("eed", "ced"):
-            c, c1, s1 = _current_coherence(self, rows, progress)
+            if self._initial is not None:
+                (c, c1, s1), self._initial = self._initial, None
+            else:
+                c, c1, s1 = self._coherence(rows, progress)
             k1, k2 = _diffusivities(self.mode, c, p, self.scale)
-            w = self.Q[:, :, 0] * c1[:, None] + self.Q[:, :, 1] * s1[:, None]
-            G = np.stack([k2 * self.P[k] + (k1 - k2) * w[:, a] * w[:, b]
-                          for k, (a, b) in enumerate(TENSOR_COMPONENTS)])
-            return self.divergence.matrix(G), None
+            q0, q1 = self.Q
+            w = q0 * c1 + q1 * s1
+            G = np.empty((6, self.band.size), dtype=self.work)
+            difference = k1 - k2
+            for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+                # k2 Q Q^T + (k1 - k2) w w^T: the tangent projector Q Q^T = q0 q0^T + q1 q1^T
+                np.multiply(q0[a], q0[b], out=G[k])
+                G[k] += q1[a] * q1[b]
+                G[k] *= k2
+                G[k] += difference * w[a] * w[b]
+            return self._fill(G), None
         # Perona-Malik and Beltrami: scalar edge stopping from the current gradient
-        source = rows
-        if p["sigma"] > 0 and self.mode == "beltrami":
-            source = rows.copy()
-            heat_rows(self.band, source, p["sigma"], dt=self.smoothing_dt)
-        J = outer_products(self.band, source, self.gradients).astype(np.float64)
+        beltrami = self.mode == "beltrami"
+        trace, second = self.smoothing.invariants(self.smoothing.presmoothed(rows) if beltrami else rows, beltrami)
         if progress is not None:
             progress(1.0)
         lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
-        trace = np.maximum(J[0] + J[1] + J[2], 0.0)
-        if self.mode == "perona_malik":
-            g = 1.0 / (1.0 + trace / lam2)
-            return self.divergence.matrix(_isotropic(g)), None
-        # det of the tangent tensor: J is tangent (rank <= 2), so det J~ is its second invariant
-        second = (J[0] * J[1] + J[0] * J[2] + J[1] * J[2] - J[3] ** 2 - J[4] ** 2 - J[5] ** 2)
-        metric = 1.0 + trace / lam2 + np.maximum(second, 0.0) / lam2**2
-        inv = 0.5 / metric
-        return self.divergence.matrix(_isotropic(inv)), inv.astype(self.dtype)
+        if not beltrami:
+            g = (1.0 / (1.0 + trace / lam2)).astype(self.work)
+            return self._fill(_isotropic(g)), None
+        # det of the tangent tensor: J is tangent (rank <= 2), so det J~ is its second invariant;
+        # in float64, where lam2**2 stays a number
+        trace, second = trace.astype(np.float64, copy=False), second.astype(np.float64, copy=False)
+        inv = (0.5 / (1.0 + trace / lam2 + second / lam2**2)).astype(self.work)
+        return self._fill(_isotropic(inv)), inv.astype(self.dtype)
 
 
 def _step(rows, A, extra, laplacian, E, tau, stable_step, bounds):
@@ -302,14 +418,6 @@ def _rms_change(rows, before, inner, span):
                for j in range(len(rows)))
 
 
-def _current_coherence(flow, rows, *args):
-    """``(c, c1, s1)``: for the first step the initial data's (computed by ``normalise``), then fresh."""
-    if flow._initial is not None:
-        found, flow._initial = flow._initial, None
-        return found
-    return flow._coherence(rows, *args)
-
-
 def _diffusivities(mode, c, p, scale):
     """EED's or CED's ``(kappa1, kappa2)`` from the coherence ``c`` and ``scale = ||c0||_inf``."""
     with np.errstate(over="ignore"):
@@ -325,133 +433,3 @@ def _diffusivities(mode, c, p, scale):
 def _isotropic(g):
     zeros = np.zeros_like(g)
     return np.stack([g, g, g, zeros, zeros, zeros])
-
-
-def _projector(Q):
-    """Tangent projectors ``Q Q^T`` as rows (6, N)."""
-    return np.stack([np.einsum("ni,ni->n", Q[:, a, :], Q[:, b, :]) for a, b in TENSOR_COMPONENTS])
-
-
-class _FastFlow:
-    """The step operator of the fast scheme (see :func:`diffuse`)."""
-
-    def __init__(self, band, dtype, mode, params, normals):
-        self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
-        self.normals = normals
-        self.E = band.split_matrix("E", dtype)
-        self.laplacian = band.split_matrix("L", dtype) if mode in ("gaussian", "beltrami") else None
-        self.scale = 0.0
-        self.stable_step = np.inf
-        self._initial = None
-        if mode == "gaussian":
-            self.stable_step = DivergenceOperator.stable_step(band.laplacian_matrix(dtype))
-            return
-        # the parts are independent: build them side by side on the worker threads
-        parts = [self._build_presmooth, self._build_divergence]
-        if mode in ("eed", "ced"):
-            parts += [self._build_postsmooth, self._build_tangents]
-        map_parallel(lambda build: build(), parts)
-
-    def _build_divergence(self):
-        self.divergence = DivergenceOperator(self.band, self.dtype)
-        self._A = self.divergence.template()
-        self.A = SplitMatrix(self._A)
-        # gradients wherever the band has the points: around the surface and at every point E reads
-        self.gradients = [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")]
-
-    def _build_presmooth(self):
-        sigma, band = self.params["sigma"], self.band
-        self.presmooth = None
-        if sigma > 0:
-            self.presmooth = GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype)
-
-    def _build_tangents(self):
-        Q = tangent_basis(self.band, self.normals)
-        self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.dtype)  # (2, 3, N): q0, q1 by axis
-
-    def _build_postsmooth(self):
-        # the tensor from a shell of three spacings about the surface; a rho narrower than a
-        # grid spacing would not reach the band's rim, and E extends the raw tensor instead
-        rho, band = self.params["rho"], self.band
-        self.postsmooth = None
-        if np.sqrt(2.0 * rho) >= band.h:
-            self.postsmooth = GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype)
-
-    def _smoothed(self, rows):
-        return rows if self.presmooth is None else self.presmooth(rows)
-
-    def _products(self, rows):
-        """Mean over channels of ``grad v grad v^T`` (6, N) where the gradients have rows; zero elsewhere."""
-        J = np.zeros((6, self.band.size), dtype=self.dtype)
-        for v in rows:
-            g = [D @ v for D in self.gradients]
-            for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-                J[k] += g[a] * g[b]
-        J /= len(rows)
-        return J
-
-    def _coherence(self, rows):
-        J = self._products(self._smoothed(rows))
-        if self.postsmooth is not None:
-            J = self.postsmooth(J)
-        else:
-            J = np.stack([self.E @ j for j in J])
-        # the tangent tensor Q^T J Q (eq. (25)) from J's six rows
-        full = [[J[_COMPONENT[min(a, b), max(a, b)]] for b in range(3)] for a in range(3)]
-        q0, q1 = self.Q
-        Jq0 = [full[a][0] * q0[0] + full[a][1] * q0[1] + full[a][2] * q0[2] for a in range(3)]
-        Jq1 = [full[a][0] * q1[0] + full[a][1] * q1[1] + full[a][2] * q1[2] for a in range(3)]
-        a = q0[0] * Jq0[0] + q0[1] * Jq0[1] + q0[2] * Jq0[2]
-        b = q1[0] * Jq0[0] + q1[1] * Jq0[1] + q1[2] * Jq0[2]
-        d = q1[0] * Jq1[0] + q1[1] * Jq1[1] + q1[2] * Jq1[2]
-        mu1, mu2, c1, s1 = eigen_2x2(a, b, d)
-        return np.maximum(mu1 - mu2, 0), c1, s1
-
-    def _invariants(self, rows):
-        """Extended trace and (for Beltrami) second invariant of the structure tensor."""
-        J = self._products(rows)
-        out = [J[0] + J[1] + J[2]]
-        if self.mode == "beltrami":
-            out.append(J[0] * J[1] + J[0] * J[2] + J[1] * J[2] - J[3] ** 2 - J[4] ** 2 - J[5] ** 2)
-        return [np.maximum(self.E @ x, 0) for x in out]
-
-    def normalise(self, rows):
-        """Scale-free parameters from the initial data (section 4.5)."""
-        if self.mode in ("eed", "ced"):
-            self._initial = self._coherence(rows)
-            self.scale = float(self._initial[0].max())
-        elif self.mode in ("perona_malik", "beltrami"):
-            self.scale = float(np.sqrt(float(self._invariants(self._smoothed(rows))[0].max())))
-
-    def _fill(self, G):
-        """Set A's weights from the tensor field G (6, N) and its stable step."""
-        self.divergence.fill(G, self._A.data)
-        self.stable_step = gershgorin_step(np.abs(self._A.data).reshape(-1, 19).sum(axis=1))
-        return self.A
-
-    def operator(self, rows):
-        """``(A, extra)`` as in the reference flow, A split over the cores."""
-        if self.mode == "gaussian":
-            return self.laplacian, None
-        p = self.params
-        if self.mode in ("eed", "ced"):
-            c, c1, s1 = _current_coherence(self, rows)
-            k1, k2 = _diffusivities(self.mode, c, p, self.scale)
-            q0, q1 = self.Q
-            w = q0 * c1 + q1 * s1
-            G = np.empty((6, self.band.size), dtype=self.dtype)
-            for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-                # k2 Q Q^T + (k1 - k2) w w^T: the tangent projector Q Q^T = q0 q0^T + q1 q1^T
-                np.multiply(q0[a], q0[b], out=G[k])
-                G[k] += q1[a] * q1[b]
-                G[k] *= k2
-                G[k] += (k1 - k2) * w[a] * w[b]
-            return self._fill(G), None
-        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
-        if self.mode == "perona_malik":
-            (trace,) = self._invariants(rows)
-            g = (1.0 / (1.0 + trace / lam2)).astype(self.dtype)
-            return self._fill(_isotropic(g)), None
-        trace, second = self._invariants(self._smoothed(rows))
-        inv = (0.5 / (1.0 + trace / lam2 + second / lam2 / lam2)).astype(self.dtype)
-        return self._fill(_isotropic(inv)), inv

@@ -78,12 +78,20 @@ class DivergenceOperator:
         offsets += [s * _AXIS[a] for a in range(3) for s in (1, -1)]
         offsets += [sa * _AXIS[a] + sb * _AXIS[b] for a, b, sa, sb in diagonals]
         self._diagonals = diagonals
-        columns = band.neighbors(np.array(offsets))[self.rows]
+        # A is canonical (each row's columns sorted), so that SciPy never sorts it in place and its
+        # products sum each row in column order.  Band points are numbered in lexicographic grid
+        # order, so the sorted order of the stencil slots is the offsets' own, the same in every row
+        offsets = np.array(offsets)
+        self._order = np.lexsort(offsets.T[::-1])
+        columns = band.neighbors(offsets[self._order])[self.rows]   # (n_inner, 19), sorted
         if np.any(columns < 0):
             raise RuntimeError("an inner band point lacks part of its 19-point stencil")
+        if not np.all(columns[:, :-1] < columns[:, 1:]):
+            raise RuntimeError("the band's points are not numbered in grid order")
         self._template = _rows_csr(band, self.rows, columns, np.zeros(columns.shape), 19, self.dtype)
+        self._template.has_sorted_indices = True
         #: band indices of the inner points' stencils by stencil slot (19, n_inner)
-        self.columns = np.ascontiguousarray(columns.T)
+        self.columns = columns.T[np.argsort(self._order)]
 
     def matrix(self, G):
         """The CSR matrix A(G) (N, N); rows outside the inner points are empty.
@@ -95,7 +103,7 @@ class DivergenceOperator:
         return A
 
     def fill(self, G, data):
-        """Write the weights of A(G) into ``data`` (19 n_inner,), in A's entry order; returns ``data``.
+        """Write the weights of A(G) into ``data`` (19 n_inner,), in A's (sorted) entry order; returns ``data``.
 
         Computed in G's precision from the 21 gathers they need: each face's
         diagonal entry, the centre's, and each mixed entry at the four faces
@@ -122,7 +130,7 @@ class DivergenceOperator:
             np.add(at[(a, b, a, sa)], at[(a, b, b, sb)], out=w[7 + k])
             w[7 + k] *= sa * sb
             w[7 + k] /= 4.0 * h2
-        data.reshape(n, 19)[:] = w.T
+        data.reshape(n, 19)[:] = w[self._order].T
         return data
 
     def template(self):
@@ -139,7 +147,9 @@ class DivergenceOperator:
     def stable_step(A):
         """Largest forward Euler step for ``v + tau A v`` by Gershgorin's bound on A's spectrum.
 
-        ``1.9 / max_i sum_j |A_ij|`` (a little under 2 / rho(A)); infinite for A = 0.
+        ``1.9 / max_i sum_j |A_ij|`` (a little under 2 / rho(A)); infinite for A = 0.  A must be
+        canonical (as the operator's and the band's matrices are): SciPy's sum
+        sorts the indices of any other matrix in place.
         """
         return gershgorin_step(np.asarray(abs(A).sum(axis=1)) if A.nnz else np.zeros(0))
 

@@ -17,22 +17,40 @@ import numpy as np
 from .heat_flow import heat_rows
 from .stencils import TENSOR_COMPONENTS
 
-__all__ = ["outer_products", "structure_tensor", "reduce_to_tangent", "eigen_2x2", "full_tensor"]
+__all__ = ["products", "outer_products", "invariants", "structure_tensor", "reduce_to_tangent", "eigen_2x2"]
+
+
+def products(channels, gradients):
+    """Mean over channels of ``grad v grad v^T`` (6, N) where the gradients have rows; zero elsewhere.
+
+    ``channels`` are band values as rows (C, N); ``gradients`` the three
+    central difference matrices (see :func:`~cp_stylize.stencils.gradient_matrices`).
+    """
+    J = np.zeros((6, channels.shape[1]), dtype=channels.dtype)
+    for v in channels:
+        g = [D @ v for D in gradients]
+        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+            J[k] += g[a] * g[b]
+    J /= len(channels)
+    return J
+
+
+def invariants(J):
+    """Trace and second invariant (the sum of the principal 2x2 minors) of a tensor field J (6, N).
+
+    For a tangent tensor (rank at most 2), the second invariant is the
+    determinant of its 2x2 tangent form ``J~``.
+    """
+    return J[0] + J[1] + J[2], J[0] * J[1] + J[0] * J[2] + J[1] * J[2] - J[3] ** 2 - J[4] ** 2 - J[5] ** 2
 
 
 def outer_products(band, channels, gradients):
     """Mean over channels of ``grad v grad v^T`` at inner points, extended to the band: (6, N).
 
-    ``channels`` are band values as rows (C, N); ``gradients`` the three
-    central difference matrices.  The raw products live on the inner points;
-    the extension E makes them a closest point extension over the whole band.
+    The raw products (:func:`products`) live on the inner points; the
+    extension E makes them a closest point extension over the whole band.
     """
-    J0 = np.zeros((6, band.size), dtype=channels.dtype)
-    for v in channels:
-        g = [D @ v for D in gradients]
-        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-            J0[k] += g[a] * g[b]
-    J0 /= len(channels)
+    J0 = products(channels, gradients)
     E = band.extension_matrix(channels.dtype)
     for k in range(6):
         J0[k] = E @ J0[k]
@@ -50,20 +68,20 @@ def structure_tensor(band, channels, sigma, rho, gradients, *, dt, progress=None
     return J
 
 
-def full_tensor(J):
-    """Symmetric 3x3 tensors (N, 3, 3) from rows (6, N)."""
-    out = np.empty((J.shape[1], 3, 3), dtype=J.dtype)
-    for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-        out[:, a, b] = out[:, b, a] = J[k]
-    return out
+def reduce_to_tangent(J, q0, q1):
+    """``J~ = Q^T J Q`` (eq. (25)): returns its entries ``(a, b, d)`` of ``[[a, b], [b, d]]``.
 
-
-def reduce_to_tangent(J, Q):
-    """``J~ = Q^T J Q`` (eq. (25)): returns its entries ``(a, b, d)`` of ``[[a, b], [b, d]]``."""
-    JQ = np.einsum("nij,njk->nik", full_tensor(J), Q)
-    a = np.einsum("ni,ni->n", Q[:, :, 0], JQ[:, :, 0])
-    b = np.einsum("ni,ni->n", Q[:, :, 0], JQ[:, :, 1])
-    d = np.einsum("ni,ni->n", Q[:, :, 1], JQ[:, :, 1])
+    ``J`` is the tensor field as rows (6, N); ``q0``, ``q1`` (3, N) are the two
+    tangent vectors of ``Q = [q0 q1]`` by axis (``tangent_basis(band).transpose(2, 1, 0)``).
+    Computed in their precision, with ``b = q0 . (J q1)``.
+    """
+    component = {pair: k for k, pair in enumerate(TENSOR_COMPONENTS)}
+    full = [[J[component[min(i, j), max(i, j)]] for j in range(3)] for i in range(3)]
+    Jq0 = [full[i][0] * q0[0] + full[i][1] * q0[1] + full[i][2] * q0[2] for i in range(3)]
+    Jq1 = [full[i][0] * q1[0] + full[i][1] * q1[1] + full[i][2] * q1[2] for i in range(3)]
+    a = q0[0] * Jq0[0] + q0[1] * Jq0[1] + q0[2] * Jq0[2]
+    b = q0[0] * Jq1[0] + q0[1] * Jq1[1] + q0[2] * Jq1[2]
+    d = q1[0] * Jq1[0] + q1[1] * Jq1[1] + q1[2] * Jq1[2]
     return a, b, d
 
 

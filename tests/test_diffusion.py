@@ -93,7 +93,7 @@ def coherence_measure(band, u, sigma, rho):
 
     J = structure_tensor(band, np.array(u[None, :], dtype=np.float32), sigma, rho, gradient_matrices(band),
                          dt=0.15 * band.h**2)
-    mu1, mu2, _, _ = eigen_2x2(*reduce_to_tangent(J.astype(np.float64), tangent_basis(band)))
+    mu1, mu2, _, _ = eigen_2x2(*reduce_to_tangent(J.astype(np.float64), *tangent_basis(band).transpose(2, 1, 0)))
     return float(np.mean((mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)))
 
 
@@ -312,3 +312,54 @@ def test_fast_scheme_matches_the_reference(mode, surface):
     changed = _surface_psnr(band, u0, reference)
     print(f"\n{mode}: fast vs reference {psnr:.1f} dB; input vs reference {changed:.1f} dB")
     assert psnr >= 30.0 and changed < 25.0
+
+
+# -- the reference scheme stays as it was ------------------------------------------------------
+
+
+def _reference_cases():
+    """Reference-scheme runs of every mode, grey (float32) and colour (float64), on a sphere and a torus."""
+    for name, surface, h in (("sphere", Sphere(1.0), 0.2), ("torus", Torus(1.0, 0.4), 0.12)):
+        band = Band.build(surface, h, stencil="anisotropic")
+        p = band.cp
+        rng = np.random.default_rng(7)
+        grey = (np.sin(5 * p[:, 0]) * np.cos(3 * p[:, 1]) + 0.3 * rng.standard_normal(band.size)).astype(np.float32)
+        colour = np.stack([np.sin(4 * p[:, 0] + p[:, 2]), np.cos(5 * p[:, 1]), p[:, 2] ** 2], axis=1)
+        colour = colour + 0.2 * rng.standard_normal(colour.shape)
+        for mode in ("gaussian", "perona_malik", "eed", "ced", "beltrami"):
+            kw = dict(mode=mode, T=3 * 0.15 * h * h, scheme="reference")
+            if mode != "gaussian":
+                kw.update(sigma=0.5 * h * h)
+            if mode in ("eed", "ced"):
+                kw.update(rho=2 * h * h)
+            for kind, u in (("grey", grey), ("colour", colour)):
+                yield f"{name}_{mode}_{kind}", diffuse(band, u, **kw)
+
+
+def test_the_reference_scheme_gives_the_recorded_output():
+    """The arrays are bit-identical to those recorded (tests/data/reference_scheme.json) where NumPy, SciPy
+    and the CPU's vector features are those of the record; elsewhere their sums agree to rounding."""
+    import hashlib
+    import json
+    import os
+
+    import scipy
+    from numpy.core._multiarray_umath import __cpu_features__
+
+    with open(os.path.join(os.path.dirname(__file__), "data", "reference_scheme.json"), encoding="utf-8") as fh:
+        record = json.load(fh)
+    here = {"numpy": np.__version__, "scipy": scipy.__version__,
+            "cpu": sorted(k for k, v in __cpu_features__.items() if v)}
+    exact = here == record["recorded_with"]
+    found = dict(_reference_cases())
+    assert sorted(found) == sorted(record["cases"])
+    for name, out in found.items():
+        expected = record["cases"][name]
+        assert [str(out.dtype), list(out.shape)] == [expected["dtype"], expected["shape"]], name
+        if exact:
+            assert hashlib.sha256(np.ascontiguousarray(out).tobytes()).hexdigest() == expected["sha256"], name
+        else:
+            rtol = 1e-4 if out.dtype == np.float32 else 1e-9
+            assert float(out.sum(dtype=np.float64)) == pytest.approx(expected["sum"], rel=rtol, abs=rtol * out.size)
+            assert float(np.sqrt((out.astype(np.float64) ** 2).sum())) == pytest.approx(expected["norm"], rel=rtol)
+    print(f"\nexact comparison: {exact}")
