@@ -1,19 +1,10 @@
-"""Textures on triangle meshes: bake-in through per-corner UVs, bake-out into a UV atlas.
+"""Where a mesh's faces lie in a square texture: the output's UV atlas.
 
-Texture in
-    :func:`sample_texture` reads an image at the UV coordinates of every band
-    point's closest point, ``uv = sum_i bary_i uv_i`` over the corners of the
-    face that holds it (``Band.face``, ``Band.bary``).
-
-Texture out
-    :func:`uv_atlas` decides where every face goes in the output image: the
-    mesh's own UVs when they are usable, a new xatlas unwrap otherwise.
-    :func:`bake_to_atlas` maps every texel centre inside a UV triangle to the
-    3-D point with the same barycentric coordinates in that face, and takes
-    the band's tricubic interpolant there (paper, eq. (47)).  Texels just
-    outside the islands (the margin) continue their island's map onto the
-    surface beyond its border (across the seam), so bilinear filtering and
-    mipmaps read the surface's own colours there, never the background.
+:func:`uv_atlas` decides the layout: the mesh's own UVs when they are usable,
+a new xatlas unwrap otherwise (or :class:`UnusableUVs`, when no new one may or
+can be made).  The :class:`Atlas` also rasterises the layout: the texels each
+face covers and their barycentric coordinates, from which
+:func:`~cp_stylize.baking.bake_to_atlas` makes the image.
 
 Usable UVs
     Per-corner UVs (F, 3, 2) are usable for an atlas of ``size`` x ``size``
@@ -28,9 +19,7 @@ Usable UVs
       or at a corner do not overlap, and overlaps too thin to hold a texel
       centre are not seen (and do not matter at that resolution).
 
-Images are float arrays (H, W, C) with row 0 at the bottom, as in
-:mod:`cp_stylize.texture`: texel ``(row, col)`` has its centre at
-``uv = ((col + 0.5) / W, (row + 0.5) / H)``.
+Texel ``(row, col)`` has its centre at ``uv = ((col + 0.5) / W, (row + 0.5) / H)``.
 """
 
 from __future__ import annotations
@@ -39,17 +28,13 @@ import dataclasses
 import importlib.util
 
 import numpy as np
-from scipy import ndimage
 
-from .mesh import _expand, _split_counts
-from .texture import bilinear
+from .arrays import check_uvs, count, expand_runs, split_counts
 
-__all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "sample_texture", "bake_to_atlas"]
+__all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "check_mesh"]
 
 #: Texel centres rasterised at once.
 _TEXELS = 1 << 21
-#: Band interpolations at once (each builds 64 weights a point).
-_POINTS = 1 << 16
 #: Inside test slack, in texels: a centre on an edge belongs to the triangle ...
 _EDGE = 1e-6
 #: ... but counts towards an overlap only this far inside.
@@ -58,8 +43,6 @@ _INSET = 1e-3
 _MIN_AREA = 1e-6
 #: UV coordinates may leave [0, 1] by this much.
 _UV_SLACK = 1e-6
-#: Margin texels continue their island's map linearly this far out, in texels.
-_REACH = 2.0
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -101,7 +84,8 @@ class Atlas:
         return mask.reshape(self.size, self.size)
 
 
-def _check_mesh(mesh):
+def check_mesh(mesh):
+    """``mesh`` if it is a :class:`~cp_stylize.mesh.TriangleMesh` (or alike); TypeError otherwise."""
     for name in ("faces", "face_index", "n_input_faces", "vertices"):
         if not hasattr(mesh, name):
             raise TypeError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
@@ -109,20 +93,7 @@ def _check_mesh(mesh):
 
 
 def _check_size(size):
-    if isinstance(size, (bool, np.bool_)) or not isinstance(size, (int, np.integer)):
-        raise TypeError(f"size must be an integer number of texels, got {size!r}")
-    if size < 1:
-        raise ValueError(f"size must be a positive number of texels, got {size!r}")
-    return int(size)
-
-
-def _check_uvs(uvs, n_faces):
-    uvs = np.asarray(uvs)
-    if uvs.shape != (n_faces, 3, 2):
-        raise ValueError(f"uvs must have shape ({n_faces}, 3, 2), one UV per face corner, got {uvs.shape}")
-    if not (np.issubdtype(uvs.dtype, np.floating) or np.issubdtype(uvs.dtype, np.integer)):
-        raise TypeError(f"uvs must hold real numbers, got dtype {uvs.dtype}")
-    return uvs.astype(np.float64, copy=False)
+    return count(size, "size", unit=" number of texels")
 
 
 def _rasterise(uv, size):
@@ -145,16 +116,16 @@ def _rasterise(uv, size):
     cols = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
     rows[cols == 0] = 0
     # units: one texel row of one triangle's bounding box
-    unit_tri, unit_row = _expand(rows)
+    unit_tri, unit_row = expand_runs(rows)
     unit_row += lo[unit_tri, 1]
     unit_cols = cols[unit_tri]
     best_score = np.full(size * size, -np.inf, dtype=np.float32)
     best_tri = np.full(size * size, -1, dtype=np.int32)
     best_bary = np.zeros((size * size, 3), dtype=np.float32)
     claims = np.zeros(size * size, dtype=np.uint8)
-    bounds = _split_counts(unit_cols, _TEXELS)
+    bounds = split_counts(unit_cols, _TEXELS)
     for s, e in zip(bounds[:-1], bounds[1:]):
-        unit, col = _expand(unit_cols[s:e])
+        unit, col = expand_runs(unit_cols[s:e])
         unit += s
         t = unit_tri[unit]
         k = tri[t]
@@ -200,9 +171,9 @@ def uv_problems(mesh, uvs, size):
     list of str
         One sentence per problem found; see the module notes for the rules.
     """
-    mesh = _check_mesh(mesh)
+    mesh = check_mesh(mesh)
     size = _check_size(size)
-    uvs = _check_uvs(uvs, mesh.n_input_faces)
+    uvs = check_uvs(uvs, mesh.n_input_faces)
     return _problems(uvs[mesh.face_index], size)[0]
 
 
@@ -271,10 +242,10 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
     corners of the input faces; a skipped (degenerate) face, which covers no
     texel, gets the UVs of other corners at the same vertices.
     """
-    mesh = _check_mesh(mesh)
+    mesh = check_mesh(mesh)
     size = _check_size(size)
     if uvs is not None:
-        uvs = _check_uvs(uvs, mesh.n_input_faces)
+        uvs = check_uvs(uvs, mesh.n_input_faces)
     if uvs is not None and not force_new:
         problems, raster = _problems(uvs[mesh.face_index], size)
         if not problems:
@@ -303,8 +274,7 @@ def _xatlas_uvs(mesh, size, *, padding=None):
 
     if padding is None:
         padding = max(2, size // 256)
-    if isinstance(padding, (bool, np.bool_)) or not isinstance(padding, (int, np.integer)) or padding < 0:
-        raise ValueError(f"padding must be a non-negative integer number of texels, got {padding!r}")
+    padding = count(padding, "padding", minimum=0, unit=" number of texels")
     faces = mesh.faces
     atlas = xatlas.Atlas()
     atlas.add_mesh(mesh.vertices.astype(np.float32), faces.astype(np.uint32))
@@ -340,144 +310,3 @@ def _input_faces(mesh):
     return faces
 
 
-def sample_texture(band, uvs, image, *, wrap=("repeat", "repeat")):
-    """Image values at the band's closest points, read through per-corner UVs.
-
-    Parameters
-    ----------
-    band : Band
-        A band built from a :class:`~cp_stylize.mesh.TriangleMesh` (it has
-        ``face`` and ``bary``).
-    uvs : array_like, shape (F, 3, 2)
-        Per-corner UVs of the mesh's input faces.
-    image : ndarray, shape (H, W, C) or (H, W)
-        Float image, row 0 at the bottom.
-    wrap : pair of {"repeat", "clamp"}
-        Lookup beyond the edge texel centres, for ``u`` and ``v``; "repeat"
-        is Blender's default image extension.
-
-    Returns
-    -------
-    ndarray, shape (N, C), float32
-        Bilinear lookups at ``uv = sum_i bary_i uvs[face, i]``.
-    """
-    face, bary = getattr(band, "face", None), getattr(band, "bary", None)
-    if face is None or bary is None:
-        raise ValueError(f"the band must be built from a triangle mesh (it needs face and bary), got {band!r}")
-    n_faces = getattr(band.surface, "n_input_faces", None)
-    uvs = np.asarray(uvs)
-    if n_faces is None:
-        n_faces = len(uvs)
-    uvs = _check_uvs(uvs, n_faces)
-    image = np.asarray(image)
-    if not np.issubdtype(image.dtype, np.floating):
-        raise TypeError(f"image must hold floats in [0, 1], got dtype {image.dtype}")
-    uv = np.einsum("ni,nij->nj", bary, uvs[face])
-    return bilinear(image.astype(np.float32, copy=False), uv, wrap=wrap).astype(np.float32, copy=False)
-
-
-def _barycentric_2d(q, a, b, c):
-    """Barycentric coordinates (M, 3) of points ``q`` (M, 2) in triangles ``abc`` (unclamped)."""
-    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
-    v = ((q[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1])) / det
-    w = ((b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (q[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
-    return np.column_stack([1.0 - v - w, v, w])
-
-
-def _closest_in_triangle_2d(q, a, b, c):
-    """Points (M, 2) of triangles ``abc`` nearest to ``q`` (M, 2): inside, or on the nearest edge."""
-    def on_segment(p, r):
-        d = r - p
-        t = np.clip(np.einsum("ij,ij->i", q - p, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-        return p + t[:, None] * d
-
-    candidates = np.stack([on_segment(a, b), on_segment(b, c), on_segment(c, a)])
-    gap = ((candidates - q[None]) ** 2).sum(axis=2)
-    nearest = candidates[np.argmin(gap, axis=0), np.arange(len(q))]
-    bary = _barycentric_2d(q, a, b, c)
-    inside = np.all(bary >= 0, axis=1)
-    return np.where(inside[:, None], q, nearest)
-
-
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
-    """Image of band values laid out on a UV atlas.
-
-    Parameters
-    ----------
-    band : Band
-        Built from the mesh the atlas belongs to.
-    values : ndarray, shape (N,) or (N, C)
-        Band values (a closest point extension, e.g. after diffusion).
-    atlas : Atlas
-        From :func:`uv_atlas`.
-    margin : int
-        Texels outside the UV islands, up to this distance, that receive the
-        value of the nearest island border point.
-    fill : float
-        Value of the texels farther than ``margin`` from every island.
-
-    Returns
-    -------
-    ndarray, shape (size, size, C)
-        Row 0 at the bottom; float64 values stay float64, others give float32.
-
-    Notes
-    -----
-    A covered texel with barycentric coordinates ``bary`` in face ``f`` maps
-    to the 3-D point ``sum_i bary_i V[f_i]``, which lies on the mesh (no
-    closest point search is needed), and takes the band's tricubic
-    interpolant there.  A margin texel finds its nearest covered texel (a
-    Euclidean distance transform) and continues that texel's face map
-    linearly: its UV point, pulled back to within two texels of the face's
-    UV triangle, has barycentric coordinates (some negative) that give a
-    point of the face's plane just beyond the face, which
-    ``mesh.closest_point`` snaps onto the surface, across the seam when there
-    is one.  Bilinear filtering at an island's border thus reads the colours
-    of the surface on the other side of the border, not a copy of the
-    border, and seams stay invisible to second order in the texel size;
-    farther margin texels repeat the colour two texels out, for mipmaps.
-    """
-    mesh = _check_mesh(band.surface)
-    if not isinstance(atlas, Atlas):
-        raise TypeError(f"atlas must be an Atlas from uv_atlas, got {type(atlas).__name__}")
-    if atlas.uvs.shape[0] != mesh.n_input_faces:
-        raise ValueError(f"the atlas has UVs for {atlas.uvs.shape[0]} faces, but the band's mesh has "
-                         f"{mesh.n_input_faces}")
-    if isinstance(margin, (bool, np.bool_)) or not isinstance(margin, (int, np.integer)) or margin < 0:
-        raise ValueError(f"margin must be a non-negative integer number of texels, got {margin!r}")
-    values = band._check_values(values)
-    size = atlas.size
-    kept = mesh._kept
-    corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
-    texels = [atlas.texels]
-    points = [np.einsum("mi,mij->mj", atlas.bary, corners[kept[atlas.face]])]
-
-    covered = atlas.coverage
-    if margin > 0 and len(atlas.texels):
-        distance, nearest = ndimage.distance_transform_edt(~covered, return_indices=True)
-        ring = np.flatnonzero((distance > 0) & (distance <= margin))
-        if len(ring):
-            owner = np.full(size * size, -1, dtype=np.int64)
-            owner[atlas.texels] = atlas.face
-            near = nearest[0].ravel()[ring] * size + nearest[1].ravel()[ring]
-            face = owner[near]
-            row, col = np.divmod(ring, size)
-            q = np.column_stack([(col + 0.5) / size, (row + 0.5) / size])
-            uv = atlas.uvs[face]
-            border = _closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
-            out = np.linalg.norm(q - border, axis=1) * size
-            step = np.minimum(1.0, _REACH / np.where(out > 0, out, 1.0))
-            q = border + step[:, None] * (q - border)
-            bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
-            plane = np.einsum("mi,mij->mj", bary, corners[kept[face]])
-            texels.append(ring)
-            points.append(mesh.closest_point(plane)[0])
-    texels = np.concatenate(texels)
-    points = np.concatenate(points)
-
-    channels = 1 if values.ndim == 1 else values.shape[1]
-    image = np.full((size * size, channels), fill, dtype=values.dtype)
-    for s in range(0, len(points), _POINTS):
-        out = band.interpolate(values, points[s:s + _POINTS])
-        image[texels[s:s + _POINTS]] = out.reshape(len(out), channels)
-    return image.reshape(size, size, channels)

@@ -342,7 +342,7 @@ class Band:
 
     def interpolate(self, values, x):
         """Values at surface points ``x`` (M, 3) interpolated from band ``values`` (N,) or (N, k)."""
-        values = self._check_values(values)
+        values = self.check_values(values)
         return apply(self.interpolation_matrix(x, values.dtype), values)
 
     def extension_matrix(self, dtype=np.float32):
@@ -354,7 +354,7 @@ class Band:
 
         ``w`` has shape (N,) or (N, k); float64 stays float64, other types become float32.
         """
-        w = self._check_values(w)
+        w = self.check_values(w)
         return apply(self.split_matrix("E", w.dtype), w)
 
     def split_matrix(self, name, dtype=np.float32):
@@ -376,7 +376,7 @@ class Band:
 
     def laplacian(self, v):
         """``L v`` for band values ``v`` (N,) or (N, k)."""
-        v = self._check_values(v)
+        v = self.check_values(v)
         return apply(self.laplacian_matrix(v.dtype), v)
 
     def _matrix(self, name, dtype):
@@ -416,7 +416,8 @@ class Band:
                 f"in the band of width {self.width:.4g}; increase the safety factor"
             )
 
-    def _check_values(self, v):
+    def check_values(self, v):
+        """Band values ``v`` (N,) or (N, k) as an array of float32, or float64 if given so; ValueError otherwise."""
         v = np.asarray(v)
         if v.ndim not in (1, 2) or v.shape[0] != self.size:
             raise ValueError(f"band values must have shape ({self.size},) or ({self.size}, k), got {v.shape}")

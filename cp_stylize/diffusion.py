@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .heat_flow import heat_rows, time_steps
-from .parameters import DEFAULTS, MODES
+from .parameters import DEFAULTS, FILTER_PARAMETERS, MODES
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
@@ -45,8 +45,8 @@ LAG = 0.02
 _TINY = 1e-30
 
 
-def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, lambda_rel=None,
-            tau=None, scheme="fast", lag=LAG, clamp=True, normals=None, progress=None):
+def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, normals=None, progress=None,
+            **params):
     """Filter band values by surface-intrinsic diffusion to time ``T``.
 
     Parameters
@@ -62,19 +62,6 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
         The filter.
     T : float
         Stop time, in squared surface units.
-    sigma : float, optional
-        Pre-smoothing time of the structure tensor (Algorithm 1, step 2).  For
-        Perona-Malik and Beltrami it sets the smoothing of the data whose
-        largest gradient normalises ``lambda``.
-    rho : float, optional
-        Post-smoothing time of the structure tensor (step 4); EED and CED.
-    alpha : float, optional
-        CED's smallest diffusivity, eq. (9).
-    b_rel : float, optional
-        CED's ``B = b_rel * ||c0||_inf``, eq. (53), with ``c0`` the coherence of ``u0``.
-    lambda_rel : float, optional
-        Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
-        Perona-Malik and Beltrami: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
     tau : float, optional
         Time step; default the paper's ``0.15 h^2``.  A step that the current
         diffusion tensor makes unstable (Gershgorin bound) is split into
@@ -100,6 +87,22 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
     progress : callable, optional
         ``progress(fraction)`` as the run advances; an exception it raises
         stops the run and propagates (the input is never modified).
+    **params
+        The mode's filter parameters (:data:`cp_stylize.parameters.FILTERS`);
+        those not given take the mode's defaults (:data:`DEFAULTS`).
+    sigma : float, optional
+        Pre-smoothing time of the structure tensor (Algorithm 1, step 2).  For
+        Perona-Malik and Beltrami it sets the smoothing of the data whose
+        largest gradient normalises ``lambda``.
+    rho : float, optional
+        Post-smoothing time of the structure tensor (step 4); EED and CED.
+    alpha : float, optional
+        CED's smallest diffusivity, eq. (9).
+    b_rel : float, optional
+        CED's ``B = b_rel * ||c0||_inf``, eq. (53), with ``c0`` the coherence of ``u0``.
+    lambda_rel : float, optional
+        Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
+        Perona-Malik and Beltrami: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
 
     Returns
     -------
@@ -156,9 +159,13 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if scheme not in SCHEMES:
         raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
+    unknown = set(params) - set(FILTER_PARAMETERS)
+    if unknown:
+        raise TypeError(f"diffuse() got unexpected keyword argument(s) {sorted(unknown)}; "
+                        f"filter parameters are {list(FILTER_PARAMETERS)}")
+    given = params
     params = dict(DEFAULTS[mode])
-    for name, value in (("sigma", sigma), ("rho", rho), ("alpha", alpha), ("b_rel", b_rel),
-                        ("lambda_rel", lambda_rel)):
+    for name, value in given.items():
         if value is not None:
             value = float(value)
             if not np.isfinite(value) or value < 0:
@@ -169,7 +176,7 @@ def diffuse(band, u0, *, mode, T, sigma=None, rho=None, alpha=None, b_rel=None, 
         raise ValueError(f"lag must be a non-negative number, got {lag!r}")
     if mode == "ced" and not params["alpha"] <= 1:
         raise ValueError(f"alpha must lie in [0, 1], got {params['alpha']!r}")
-    u0 = band._check_values(u0)
+    u0 = band.check_values(u0)
     if not np.all(np.isfinite(u0)):
         raise ValueError("u0 holds NaN or infinite values")
     tau = PAPER_CFL * band.h**2 if tau is None else float(tau)

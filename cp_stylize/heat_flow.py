@@ -66,7 +66,7 @@ def heat(band, u0, t, *, dt=None, progress=None):
 
     It is second-order accurate in ``h`` for ``tau`` proportional to ``h^2``.
     """
-    u0 = band._check_values(u0)
+    u0 = band.check_values(u0)
     # channels as contiguous rows: SciPy's sparse products are fastest one vector at a time
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
     heat_rows(band, rows, t, dt=dt, progress=progress)

@@ -20,11 +20,13 @@ import typing
 
 import numpy as np
 
-from .atlas import UnusableUVs, bake_to_atlas, sample_texture, uv_atlas
+from .atlas import UnusableUVs, uv_atlas
+from .baking import bake_to_atlas
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
 from .noise import inject_noise
+from .sampling import sample_texture
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
            "stencil_for", "sample_colours", "stylize", "estimate", "estimate_run"]

@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import tomllib
+from collections.abc import Mapping
 
 from .parameters import FILTER_PARAMETERS, MODES, RUN, check_value
 
@@ -38,8 +39,35 @@ PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file
 
 _PARAMS = tuple(FILTER_PARAMETERS)
 
+#: The parameters that are times: they scale with the square of the object's size.
+_TIMES = {p.name for p in (*RUN.values(), *FILTER_PARAMETERS.values()) if p.unit == "time"}
+
 #: Output image sizes a run may ask for, in texels a side.
 IMAGE_SIZES = (16, 8192)
+
+
+class _Params(Mapping):
+    """The filter parameters of a :class:`StylizeSettings`: a read-only, hashable mapping."""
+
+    __slots__ = ("_values",)
+
+    def __init__(self, values):
+        self._values = dict(values)
+
+    def __getitem__(self, name):
+        return self._values[name]
+
+    def __iter__(self):
+        return iter(self._values)
+
+    def __len__(self):
+        return len(self._values)
+
+    def __hash__(self):
+        return hash(frozenset(self._values.items()))
+
+    def __repr__(self):
+        return repr(self._values)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,11 +77,7 @@ class StylizeSettings:
     mode: str = "ced"
     T: float = 1e-4
     spacing: float = 0.01
-    sigma: float | None = None
-    rho: float | None = None
-    alpha: float | None = None
-    b_rel: float | None = None
-    lambda_rel: float | None = None
+    params: Mapping = dataclasses.field(default_factory=dict)   # filter parameters set; the mode's defaults fill in
     noise_fraction: float = 0.0
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()
@@ -69,21 +93,27 @@ class StylizeSettings:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
         for parameter in RUN.values():
             parameter.check(getattr(self, parameter.name))
-        for name in _PARAMS:
-            value = getattr(self, name)
-            if value is not None:
-                FILTER_PARAMETERS[name].check(value)
+        unknown = set(self.params) - set(FILTER_PARAMETERS)
+        if unknown:
+            raise ValueError(f"unknown filter parameter(s) {sorted(unknown)}; known: {list(FILTER_PARAMETERS)}")
+        params = {name: FILTER_PARAMETERS[name].check(value) for name, value in self.params.items()
+                  if value is not None}
+        object.__setattr__(self, "params", _Params(params))
         if self.noise_fraction > 0 and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
         check_value("image size", self.image_size, *IMAGE_SIZES)
 
+    def __getattr__(self, name):
+        """A filter parameter by name (``settings.sigma``): its value, or None if it is not set."""
+        if name in FILTER_PARAMETERS:
+            return self.params.get(name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
     def diffusion_parameters(self):
         """Keyword arguments for :func:`cp_stylize.diffuse`, without the band and data."""
-        kw = {"mode": self.mode, "T": self.T}
-        kw.update({k: getattr(self, k) for k in _PARAMS if getattr(self, k) is not None})
-        return kw
+        return {"mode": self.mode, "T": self.T, **self.params}
 
     def scaled(self, length):
         """Absolute spacing and diffusion parameters for an object whose longest side is ``length``.
@@ -92,12 +122,16 @@ class StylizeSettings:
         """
         s = length / 2.0
         kw = self.diffusion_parameters()
-        for key in ("T", "sigma", "rho"):
-            if key in kw:
-                kw[key] = kw[key] * s * s
+        for key, value in kw.items():
+            if key in _TIMES:
+                kw[key] = value * s * s
         return self.spacing * s, kw
 
     def replace(self, **changes):
+        """A copy with ``changes``; filter parameters by name (``sigma=...``) change ``params``."""
+        params = {k: changes.pop(k) for k in list(changes) if k in FILTER_PARAMETERS}
+        if params:
+            changes["params"] = {**changes.get("params", self.params), **params}
         return dataclasses.replace(self, **changes)
 
 
@@ -136,7 +170,7 @@ def settings_from_dict(data, *, source="preset"):
             noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
             palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
             image_size=int(output.get("size", 1024)), margin=int(output.get("margin", 16)),
-            name=data.get("name", ""), description=data.get("description", ""), **params)
+            name=data.get("name", ""), description=data.get("description", ""), params=params)
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from None
 
@@ -174,7 +208,7 @@ def save_preset(settings, path):
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
              f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
              f"spacing = {_toml_value(float(settings.spacing))}", "", "[params]"]
-    lines += [f"{k} = {_toml_value(float(getattr(settings, k)))}" for k in _PARAMS if getattr(settings, k) is not None]
+    lines += [f"{k} = {_toml_value(float(v))}" for k, v in settings.params.items()]
     if settings.noise_fraction > 0:
         lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
                   f"seed = {int(settings.seed)}", "palette = ["]

@@ -22,25 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import as_points, unit_rows
+
 __all__ = ["Sphere", "Torus"]
-
-
-def _as_points(x):
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] != 3:
-        raise ValueError(f"points must have shape (N, 3), got {x.shape}")
-    return x
-
-
-def _unit_rows(v, fallback):
-    """Normalise rows of ``v``; rows of zero length become ``fallback``.  Returns ``(unit rows, lengths)``."""
-    n = np.linalg.norm(v, axis=1)
-    zero = n == 0.0
-    if not np.any(zero):
-        return v / n[:, None], n
-    v = v.copy()
-    v[zero] = fallback
-    return v / np.where(zero, 1.0, n)[:, None], n
 
 
 class Sphere:
@@ -79,13 +63,13 @@ class Sphere:
         return self.center - self.radius, self.center + self.radius
 
     def closest_point(self, x):
-        x = _as_points(x)
+        x = as_points(x)
         d = x - self.center
-        u, n = _unit_rows(d, (0.0, 0.0, 1.0))
+        u, n = unit_rows(d, (0.0, 0.0, 1.0))
         return self.center + self.radius * u, n - self.radius
 
     def normal(self, cp):
-        return _unit_rows(_as_points(cp) - self.center, (0.0, 0.0, 1.0))[0]
+        return unit_rows(as_points(cp) - self.center, (0.0, 0.0, 1.0))[0]
 
     def point(self, s, t):
         lon = 2.0 * np.pi * np.asarray(s, dtype=np.float64) - np.pi
@@ -95,7 +79,7 @@ class Sphere:
 
     def parameters(self, p):
         """``(s, t)`` of surface points ``p`` (M, 3): the inverse of :meth:`point`."""
-        d = _as_points(p) - self.center
+        d = as_points(p) - self.center
         lon = np.arctan2(d[:, 1], d[:, 0])
         lat = np.arcsin(np.clip(d[:, 2] / np.linalg.norm(d, axis=1).clip(1e-300), -1.0, 1.0))
         return (lon + np.pi) / (2.0 * np.pi), (lat + 0.5 * np.pi) / np.pi
@@ -143,18 +127,18 @@ class Torus:
     def _core(self, d):
         """Nearest points of the core circle to the offsets ``d`` from the centre."""
         planar = np.column_stack([d[:, 0], d[:, 1], np.zeros(len(d))])
-        u, _ = _unit_rows(planar, (1.0, 0.0, 0.0))
+        u, _ = unit_rows(planar, (1.0, 0.0, 0.0))
         return self.R * u
 
     def closest_point(self, x):
-        d = _as_points(x) - self.center
+        d = as_points(x) - self.center
         q = self._core(d)
-        u, n = _unit_rows(d - q, (0.0, 0.0, 1.0))
+        u, n = unit_rows(d - q, (0.0, 0.0, 1.0))
         return self.center + q + self.r * u, n - self.r
 
     def normal(self, cp):
-        d = _as_points(cp) - self.center
-        return _unit_rows(d - self._core(d), (0.0, 0.0, 1.0))[0]
+        d = as_points(cp) - self.center
+        return unit_rows(d - self._core(d), (0.0, 0.0, 1.0))[0]
 
     def point(self, s, t):
         phi = 2.0 * np.pi * np.asarray(s, dtype=np.float64)
@@ -165,7 +149,7 @@ class Torus:
 
     def parameters(self, p):
         """``(s, t)`` of surface points ``p`` (M, 3): the inverse of :meth:`point`."""
-        d = _as_points(p) - self.center
+        d = as_points(p) - self.center
         phi = np.arctan2(d[:, 1], d[:, 0])
         theta = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1]) - self.R)
         return np.mod(phi / (2.0 * np.pi), 1.0), np.mod(theta / (2.0 * np.pi), 1.0)

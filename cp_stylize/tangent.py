@@ -16,14 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unit_rows
+
 __all__ = ["householder_basis", "jacobian_normals", "surface_normals", "tangent_basis"]
 
 _CHUNK = 1 << 16
-
-
-def _unit_rows(v):
-    length = np.linalg.norm(v, axis=1)
-    return v / np.where(length > 0, length, 1.0)[:, None], length
 
 
 def householder_basis(normals):
@@ -105,7 +102,7 @@ def jacobian_normals(band, *, extend=True):
         n = np.take_along_axis(vectors, nearest[:, None, None], axis=2)[:, :, 0]
         lost = ~np.all((p >= 0) | (m >= 0), axis=1)
         if lost.any():
-            off, length = _unit_rows(band.points[s:e][lost] - band.cp[s:e][lost])
+            off, length = unit_rows(band.points[s:e][lost] - band.cp[s:e][lost])
             if np.any(length < 0.5 * h):
                 raise RuntimeError("a band point near the surface lacks grid neighbours; the band is too thin")
             n[lost] = off

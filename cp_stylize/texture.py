@@ -1,4 +1,4 @@
-"""Images in and out of the band: bilinear lookup, parametric maps, PNG files.
+"""Images: bilinear lookup with Blender's extensions, texel centres, sRGB encoding, PNG files.
 
 Image convention (Blender's): an image is a float array of shape (H, W, C)
 whose row 0 is the bottom row, so texture coordinate ``(u, v)`` in [0, 1]^2
@@ -13,11 +13,11 @@ import zlib
 
 import numpy as np
 
-__all__ = ["WRAPS", "bilinear", "sample_map", "bake_map", "write_png", "srgb_to_linear",
-           "linear_to_srgb"]
+__all__ = ["WRAPS", "bilinear", "check_image", "texel_centres", "write_png", "srgb_to_linear", "linear_to_srgb"]
 
 
-def _check_image(image):
+def check_image(image):
+    """``image`` as an array (H, W, C) of floats; ValueError or TypeError otherwise."""
     image = np.asarray(image)
     if image.ndim == 2:
         image = image[:, :, None]
@@ -74,7 +74,7 @@ def bilinear(image, uv, *, wrap=("clamp", "clamp")):
     -------
     ndarray, shape (M, C)
     """
-    image = _check_image(image)
+    image = check_image(image)
     uv = np.asarray(uv, dtype=np.float64)
     if uv.ndim != 2 or uv.shape[1] != 2:
         raise ValueError(f"uv must have shape (M, 2), got {uv.shape}")
@@ -102,28 +102,6 @@ def texel_centres(height, width):
     return u, v
 
 
-def sample_map(band, image, *, wrap=("repeat", "clamp")):
-    """Values at the band's closest points of an image mapped by the surface parametrisation.
-
-    The surface must have ``parameters(p) -> (s, t)`` (for example
-    :class:`~cp_stylize.Sphere`, whose map is equirectangular).
-
-    Returns
-    -------
-    ndarray, shape (N, C), float32
-    """
-    s, t = band.surface.parameters(band.cp)
-    return bilinear(_check_image(image).astype(np.float32, copy=False), np.column_stack([s, t]), wrap=wrap)
-
-
-def bake_map(band, values, height, width):
-    """Image (height, width, C) of band ``values`` at the surface points ``point(s, t)`` of its texels."""
-    u, v = texel_centres(height, width)
-    points = band.surface.point(u.ravel(), v.ravel())
-    out = band.interpolate(values, points)
-    return out.reshape(height, width, -1)
-
-
 def srgb_to_linear(c):
     """sRGB-encoded values in [0, 1] to linear light."""
     c = np.asarray(c)
@@ -137,7 +115,7 @@ def linear_to_srgb(c):
 
 
 def _to_bytes(image):
-    image = _check_image(image)
+    image = check_image(image)
     if image.shape[2] not in (1, 3, 4):
         raise ValueError(f"a PNG needs 1, 3 or 4 channels, got {image.shape[2]}")
     data = np.round(np.clip(image, 0.0, 1.0) * 255).astype(np.uint8)

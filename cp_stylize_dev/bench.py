@@ -78,7 +78,7 @@ def _extend_seconds(band, channels):
 
 def run_torus(scheme, quick):
     from cp_stylize.diffusion import PAPER_CFL, diffuse
-    from cp_stylize.texture import bake_map
+    from cp_stylize.baking import bake_map
 
     from .paper import FIG4, torus_stripes
 

@@ -22,18 +22,17 @@ import numpy as np
 
 from cp_stylize.band import Band
 from cp_stylize.diffusion import diffuse
+from cp_stylize.parameters import DEFAULTS
 from cp_stylize.surfaces import Sphere, Torus
-from cp_stylize.texture import bake_map
+from cp_stylize.baking import bake_map
 
 from . import figures
 
-FIG4 = {
-    "gaussian": {},
-    "perona_malik": {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0},
-    "eed": {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3},
-}
+#: The modes' defaults are the paper's (cp_stylize/parameters.py): Fig. 4's for
+#: Gaussian, Perona-Malik and EED, eq. (55)'s for CED.
+FIG4 = {mode: DEFAULTS[mode] for mode in ("gaussian", "perona_malik", "eed")}
 FIG4_T = 7e-4
-FIG5 = {"sigma": 1e-4, "rho": 4e-4, "alpha": 1e-3, "b_rel": 1e-3}
+FIG5 = DEFAULTS["ced"]
 FIG5_T = 1.2e-3
 NAMES = {"noisy": "NOISY", "gaussian": "GAUSSIAN", "perona_malik": "PERONA-MALIK", "eed": "EED"}
 

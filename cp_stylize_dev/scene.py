@@ -1,4 +1,4 @@
-"""Scene building blocks shared by the demo and the tests: textures, materials, renders."""
+"""The demo's scene: a photograph as texture, its material, the camera, light and render."""
 
 import os
 
@@ -49,16 +49,6 @@ def new_material(name, image):
     tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
     bsdf.inputs["Roughness"].default_value = 0.8
     return material
-
-
-def add_uv_sphere(name="Globe", radius=1.0, material=None, segments=96, rings=48):
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius)
-    obj = bpy.context.active_object
-    obj.name = name
-    bpy.ops.object.shade_smooth()
-    if material is not None:
-        obj.data.materials.append(material)
-    return obj
 
 
 def setup_render(resolution=(480, 360), samples=16):

@@ -16,7 +16,9 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from cp_stylize import Band, Torus, heat  # noqa: E402
-from cp_stylize.atlas import bake_to_atlas, sample_texture, uv_atlas  # noqa: E402
+from cp_stylize.atlas import uv_atlas  # noqa: E402
+from cp_stylize.baking import bake_to_atlas  # noqa: E402
+from cp_stylize.sampling import sample_texture  # noqa: E402
 from cp_stylize.mesh import TriangleMesh, parametric_mesh  # noqa: E402
 from cp_stylize.texture import texel_centres, write_png  # noqa: E402
 

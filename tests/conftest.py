@@ -8,6 +8,8 @@ run in-process with the bpy wheel and, through ``tests/blender_runner.py``, unde
 import os
 import sys
 
+import pytest
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
@@ -29,3 +31,26 @@ def pytest_unconfigure(config):
 
 def pytest_sessionfinish(session, exitstatus):
     session.config._cp_stylize_status = int(exitstatus)
+
+
+@pytest.fixture(scope="module")
+def uv_sphere():
+    """A UV sphere mesh with Blender's layout (seam at u = 0, fans at the poles), its UVs and its band."""
+    from cp_stylize import Band, Sphere
+    from cp_stylize.mesh import TriangleMesh, parametric_mesh
+
+    vertices, faces, uvs = parametric_mesh(Sphere().point, 64, 32, periodic_u=True)
+    mesh = TriangleMesh(vertices, faces)
+    return mesh, uvs, Band.build(mesh, 0.05)
+
+
+@pytest.fixture(scope="module")
+def torus():
+    """A torus mesh without UVs of its own, its band and an xatlas atlas."""
+    from cp_stylize import Band, Torus
+    from cp_stylize.atlas import uv_atlas
+    from cp_stylize.mesh import TriangleMesh, parametric_mesh
+
+    vertices, faces, _ = parametric_mesh(Torus(1.0, 0.4).point, 64, 24, periodic_u=True, periodic_v=True)
+    mesh = TriangleMesh(vertices, faces)
+    return mesh, Band.build(mesh, 0.05), uv_atlas(mesh, 512)

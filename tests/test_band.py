@@ -91,3 +91,9 @@ def test_values_of_the_wrong_length_are_reported():
     band = Band.build(Sphere(), 0.2)
     with pytest.raises(ValueError, match=r"band values must have shape"):
         band.extend(np.zeros(band.size + 1))
+
+
+def test_neighbour_tables_agree_with_lookups():
+    band = Band.build(Sphere(), 0.05, stencil="anisotropic")
+    offsets = np.array([[0, 0, 0], [1, 0, -1], [0, 0, 5], [-7, 0, 0], [2, -3, 1]])
+    np.testing.assert_array_equal(band.neighbors(offsets), band.lookup(band.ijk[:, None, :] + offsets))

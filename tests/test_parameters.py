@@ -37,7 +37,7 @@ def test_shipped_presets_lie_within_the_limits():
 ])
 def test_settings_outside_the_limits_are_refused(field, value, message):
     with pytest.raises(ValueError) as info:
-        StylizeSettings(**{field: value})
+        StylizeSettings().replace(**{field: value})
     assert str(info.value) == message
 
 

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
 
-from cp_stylize.noise import inject_noise
 from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, parse_hex, save_preset
 
 REQUIRED = {"starry_night", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur"}
@@ -37,7 +36,7 @@ def test_save_and_load_round_trip(tmp_path):
 
 
 def test_settings_scale_with_the_object():
-    s = StylizeSettings(mode="eed", T=1e-4, spacing=0.01, sigma=2e-4)
+    s = StylizeSettings(mode="eed", T=1e-4, spacing=0.01, params={"sigma": 2e-4})
     h, kw = s.scaled(20.0)  # an object 20 units long: ten times the paper's size
     assert h == pytest.approx(0.1) and kw["T"] == pytest.approx(1e-2) and kw["sigma"] == pytest.approx(2e-2)
 
@@ -64,20 +63,3 @@ def test_unknown_preset_name_lists_the_shipped_ones():
 
 def test_parse_hex():
     assert parse_hex("#ff8000") == (1.0, 128 / 255, 0.0)
-
-
-def test_noise_replaces_the_requested_fraction_with_palette_colours():
-    values = np.full((20000, 3), 0.5, np.float32)
-    palette = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    out = inject_noise(values, 0.67, palette, weights=[1, 3], seed=4)
-    changed = np.any(out != 0.5, axis=1)
-    assert abs(changed.mean() - 0.67) < 0.02
-    blue = np.all(out == (0.0, 0.0, 1.0), axis=1)
-    assert abs(blue.sum() / changed.sum() - 0.75) < 0.03
-    np.testing.assert_array_equal(inject_noise(values, 0.67, palette, weights=[1, 3], seed=4), out)
-    assert np.all(values == 0.5)
-
-
-def test_noise_rejects_a_palette_of_the_wrong_width():
-    with pytest.raises(ValueError, match="palette must have shape"):
-        inject_noise(np.zeros((5, 3)), 0.5, [(1.0, 0.0)])

@@ -1,13 +1,10 @@
-"""The fast scheme's building blocks: grid Gaussians, split sparse products, neighbour tables."""
+"""The fast scheme's Gaussians on the band and on a coarse grid (cp_stylize.smoothing)."""
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from cp_stylize import Band, Sphere, Torus
 from cp_stylize.smoothing import GaussianSmoother, GridGaussian, taper
-from cp_stylize.sparse import SplitMatrix
-from cp_stylize.stencils import DivergenceOperator
 
 
 @pytest.fixture(scope="module")
@@ -61,44 +58,3 @@ def test_the_grid_gaussian_picks_a_coarser_grid_only_for_wide_kernels(band):
 def test_bad_weights_are_refused(band):
     with pytest.raises(ValueError, match="non-negative"):
         GridGaussian(band, 1e-3, weights=-np.ones(band.size))
-
-
-def test_split_products_equal_the_plain_ones():
-    band = Band.build(Torus(1.0, 0.4), 0.03)
-    v = np.random.default_rng(1).random(band.size).astype(np.float32)
-    split = SplitMatrix(band.extension_matrix(), parts=3)
-    assert len(split.blocks) == 3
-    np.testing.assert_array_equal(split @ v, band.extension_matrix() @ v)
-    small = SplitMatrix(sp.identity(10, format="csr"), parts=4)  # too small to split
-    assert len(small.blocks) == 1 and np.array_equal(small @ np.arange(10.0), np.arange(10.0))
-
-
-def test_neighbour_tables_agree_with_lookups(band):
-    offsets = np.array([[0, 0, 0], [1, 0, -1], [0, 0, 5], [-7, 0, 0], [2, -3, 1]])
-    np.testing.assert_array_equal(band.neighbors(offsets), band.lookup(band.ijk[:, None, :] + offsets))
-
-
-def test_divergence_weights_are_eq_51_in_either_precision(band):
-    """A(G) u = div(G grad u) exactly for a constant G and a quadratic u; G = I gives the Laplacian."""
-    div = DivergenceOperator(band, np.float64)
-    inner = div.rows
-    x, y, z = band.points.T
-    u = x * x - 2 * y * y + 3 * x * z + y * z + 0.5 * x
-    G = np.array([1.0, 0.7, 0.4, 0.2, -0.1, 0.15])  # xx, yy, zz, xy, xz, yz
-    # div(G grad u) = sum_ab G_ab d_a d_b u, with d_a d_b u the constant Hessian of u
-    exact = G[0] * 2 + G[1] * -4 + G[2] * 0 + 2 * (G[3] * 0 + G[4] * 3 + G[5] * 1)
-    field = np.repeat(G[:, None], band.size, axis=1)
-    np.testing.assert_allclose((div.matrix(field) @ u)[inner], exact, atol=1e-8)
-    # SciPy sorts a matrix's indices in place for some operations: later matrices stay right
-    assert DivergenceOperator.stable_step(div.matrix(field)) > 0
-    np.testing.assert_allclose((div.matrix(field) @ u)[inner], exact, atol=1e-8)
-    identity = np.repeat(np.array([1.0, 1, 1, 0, 0, 0])[:, None], band.size, axis=1)
-    v = np.random.default_rng(3).random(band.size)
-    np.testing.assert_allclose((div.matrix(identity) @ v)[inner], (band.laplacian_matrix(np.float64) @ v)[inner],
-                               rtol=1e-12, atol=1e-9)
-    # filled in place in float32 from a float32 field: the same weights to float32 precision
-    single = DivergenceOperator(band, np.float32)
-    varying = np.random.default_rng(2).random((6, band.size))
-    A = single.template()
-    single.fill(varying.astype(np.float32), A.data)
-    np.testing.assert_allclose(A.data, div.matrix(varying).data, rtol=1e-5)

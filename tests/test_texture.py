@@ -1,8 +1,11 @@
+import struct
+import zlib
+
 import numpy as np
 import pytest
 
 from cp_stylize import Band, Sphere
-from cp_stylize.texture import bake_map, bilinear, linear_to_srgb, sample_map, srgb_to_linear, write_png
+from cp_stylize.texture import bilinear, linear_to_srgb, srgb_to_linear, write_png
 
 
 def test_bilinear_hits_texel_centres_and_interpolates_linearly():
@@ -35,27 +38,45 @@ def test_clip_is_zero_outside_the_image_and_fades_over_its_edge_texels():
     np.testing.assert_allclose(out, [0.0, 0.0, 1.0, 1.0, 0.5, 0.25])
 
 
-def test_sphere_map_round_trip_is_accurate_for_a_smooth_image():
-    band = Band.build(Sphere(), 0.05)
-    v, u = np.meshgrid((np.arange(64) + 0.5) / 64, (np.arange(128) + 0.5) / 128, indexing="ij")
-    lat, lon = np.pi * v - np.pi / 2, 2 * np.pi * u - np.pi
-    # a smooth function on the sphere (no singularity at the poles)
-    img = (0.5 + 0.3 * np.cos(lat) * np.cos(lon) + 0.2 * np.sin(lat))[..., None]
-    out = bake_map(band, sample_map(band, img.astype(np.float32)), 64, 128)
-    err = np.abs(out - img)[..., 0]
-    # bilinear sampling is second order; only the rows next to the poles clamp (first order)
-    assert err[2:-2].max() < 1e-3 and err.max() < 6e-3
-
-
 def test_srgb_round_trip():
     c = np.linspace(0, 1, 101)
     np.testing.assert_allclose(linear_to_srgb(srgb_to_linear(c)), c, atol=1e-12)
 
 
-def test_write_png_writes_a_valid_file(tmp_path):
-    img = np.random.default_rng(0).uniform(size=(5, 7, 3))
+def _read_png(path):
+    """A strict reader for what write_png promises: 8-bit grey, RGB or RGBA, no interlace, filter 0."""
+    data = open(path, "rb").read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, chunks = 8, []
+    while pos < len(data):
+        (length,) = struct.unpack(">I", data[pos:pos + 4])
+        kind, payload = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + length]
+        (crc,) = struct.unpack(">I", data[pos + 8 + length:pos + 12 + length])
+        assert crc == zlib.crc32(kind + payload) & 0xFFFFFFFF, kind
+        chunks.append((kind, payload))
+        pos += 12 + length
+    assert [k for k, _ in chunks][0] == b"IHDR" and chunks[-1] == (b"IEND", b"")
+    w, h, depth, colour_type, compression, filtering, interlace = struct.unpack(">IIBBBBB", chunks[0][1])
+    assert (depth, compression, filtering, interlace) == (8, 0, 0, 0)
+    c = {0: 1, 2: 3, 6: 4}[colour_type]
+    raw = np.frombuffer(zlib.decompress(b"".join(p for k, p in chunks if k == b"IDAT")), np.uint8)
+    rows = raw.reshape(h, 1 + w * c)
+    assert np.all(rows[:, 0] == 0)
+    return rows[:, 1:].reshape(h, w, c)
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_write_png_round_trips_the_pixels(tmp_path, channels):
+    img = np.random.default_rng(0).uniform(-0.1, 1.1, size=(5, 7, channels))
     write_png(tmp_path / "a.png", img)
-    data = (tmp_path / "a.png").read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n" and b"IHDR" in data and data.endswith(b"IEND\xaeB`\x82")
+    back = _read_png(tmp_path / "a.png")
+    # 8 bits, clipped to [0, 1], row 0 of the array at the bottom of the picture
+    expected = np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)[::-1]
+    np.testing.assert_array_equal(back, expected)
+    assert back.shape == (5, 7, channels)
+
+
+def test_write_png_refuses_two_channels(tmp_path):
     with pytest.raises(ValueError, match="1, 3 or 4 channels"):
         write_png(tmp_path / "b.png", np.zeros((2, 2, 2)))
+    assert not (tmp_path / "b.png").exists()

@@ -35,6 +35,8 @@ import subprocess
 import sys
 import time
 
+from build_extension import pinned_versions
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REAL_BLENDER = os.path.join(ROOT, "tools", "real_blender.sh")
 WORK = os.path.join(ROOT, ".matrix")
@@ -49,17 +51,6 @@ ENTRIES = {
     "binary": ("Blender 4.3.2 binary (Debian 13), background", None, None, "binary", ["tests/blender"]),
     "window": ("Blender 4.3.2 binary in a window (Xvfb)", None, None, "window", ["tests/gui"]),
 }
-
-
-def pins():
-    """``{name: version}`` of requirements.txt."""
-    found = {}
-    with open(os.path.join(ROOT, "requirements.txt"), encoding="utf-8") as fh:
-        for line in fh:
-            name, sep, version = line.split("#", 1)[0].strip().partition("==")
-            if sep:
-                found[name.strip().lower()] = version.strip()
-    return found
 
 
 def run(cmd, *, env=None, log=None):
@@ -79,7 +70,7 @@ def must(cmd, **kwargs):
 
 
 def requirements(bpy, numpy):
-    shared = pins()
+    shared = pinned_versions(["scipy", "xatlas", "pytest"])
     reqs = [f"bpy=={bpy}"] + [f"{name}=={shared[name]}" for name in ("scipy", "xatlas", "pytest")]
     return reqs + ([f"numpy=={numpy}"] if numpy else [])
 

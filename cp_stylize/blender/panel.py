@@ -38,6 +38,13 @@ class CP_STYLIZE_MT_presets(bpy.types.Menu):
             layout.operator("cp_stylize.preset_load", text=bpy.path.display_name(name)).name = name
 
 
+def _split(layout):
+    """``layout`` with labels left of the values and no animation decorators."""
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
 class _Sidebar:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -57,8 +64,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         remove = row.operator("cp_stylize.preset_remove", text="", icon="REMOVE")
         remove.name = bpy.path.clean_name(settings.preset_name).lower()
 
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         layout.prop(settings, "mode")
         layout.prop(settings, "quality")
         if settings.quality == "CUSTOM":
@@ -84,9 +90,7 @@ class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
 
     def draw(self, context):
         settings = context.scene.cp_stylize
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         layout.prop(settings, "noise_fraction")
         layout.prop(settings, "seed")
         for index, item in enumerate(settings.palette):
@@ -103,9 +107,7 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
 
     def draw(self, context):
         settings = context.scene.cp_stylize
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         layout.prop(settings, "image_size")
         layout.prop(settings, "image_name")
         layout.prop(settings, "target")

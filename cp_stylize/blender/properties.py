@@ -116,7 +116,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
-            image_size=int(self.image_size), name=self.preset_name, **params)
+            image_size=int(self.image_size), name=self.preset_name, params=params)
 
     def output(self):
         """What to do with a run's result, and its limits (the Output panel)."""
@@ -134,8 +134,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         self.quality = spacing or "CUSTOM"
         self.spacing = settings.spacing
         for name, default in FILTERS[settings.mode].defaults.items():
-            value = getattr(settings, name)
-            setattr(self, filter_property(settings.mode, name), default if value is None else value)
+            setattr(self, filter_property(settings.mode, name), settings.params.get(name, default))
         self.noise_fraction = settings.noise_fraction
         self.seed = settings.seed
         self.palette.clear()

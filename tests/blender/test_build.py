@@ -24,13 +24,11 @@ SCRIPT = os.path.join(ROOT, "tools", "build_extension.py")
 
 
 def pins():
-    versions = {}
-    with open(os.path.join(ROOT, "requirements.txt"), encoding="utf-8") as fh:
-        for line in fh:
-            name, sep, version = line.split("#", 1)[0].strip().partition("==")
-            if sep:
-                versions[name.strip().lower()] = version.strip()
-    return versions
+    """``{name: version}`` of requirements.txt, read as the build reads it."""
+    spec = importlib.util.spec_from_file_location("build_extension", SCRIPT)
+    build_extension = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(build_extension)
+    return build_extension.pinned_versions(["scipy", "xatlas"])
 
 
 @pytest.fixture(scope="module")

@@ -186,32 +186,34 @@ def test_slots_sharing_a_material_share_its_copy(addon):
     assert sorted(bpy.data.materials.keys()) == ["Painted", "Painted_stylized"]
 
 
-def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_before_the_run(addon, monkeypatch):
+def _refused_before_the_band_is_built(monkeypatch):
+    """The message of a run that must stop before the band is built; asserts that nothing changed."""
     from cp_stylize import band
 
-    obj = _bare_sphere_with_material()
-    obj.modifiers.new("Subdivision", "SUBSURF")
     monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
     before = snapshot()
-    assert run_error() == ("'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
-                           "fix the UV map, or apply the modifiers that change its topology "
-                           "(or make its mesh local) first")
+    message = run_error()
     assert_unchanged(before, snapshot())
+    return message
+
+
+def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_before_the_run(addon, monkeypatch):
+    obj = _bare_sphere_with_material()
+    obj.modifiers.new("Subdivision", "SUBSURF")
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
+        "fix the UV map, or apply the modifiers that change its topology (or make its mesh local) first")
 
 
 def test_without_xatlas_a_mesh_without_uvs_is_refused_before_the_band_is_built(addon, monkeypatch):
     import sys
 
-    from cp_stylize import band
-
     _bare_sphere_with_material()
     monkeypatch.setitem(sys.modules, "xatlas", None)   # as on a platform the zip has no xatlas wheel for
-    monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
-    before = snapshot()
-    assert run_error() == ("'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
-                           "xatlas, which makes new UV maps, is not installed for this platform and Python: add a "
-                           "UV map to the mesh (for example with Smart UV Project)")
-    assert_unchanged(before, snapshot())
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
+        "xatlas, which makes new UV maps, is not installed for this platform and Python: add a "
+        "UV map to the mesh (for example with Smart UV Project)")
 
 
 # -- 3. a failure after the core has run leaves no trace -----------------------------------------

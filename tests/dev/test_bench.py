@@ -5,9 +5,12 @@ Speed is reported by ``python -m cp_stylize bench``, never asserted here.
 
 import json
 
+import pytest
+
 from cp_stylize_dev import bench
 
 
+@pytest.mark.slow
 def test_quick_benchmark_reports_every_figure(tmp_path):
     path = tmp_path / "bench.json"
     lines = []

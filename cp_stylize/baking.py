@@ -1,0 +1,142 @@
+"""Texture out: images of band values, on a UV atlas or over an analytic surface's parameters.
+
+- :func:`bake_to_atlas`: each covered texel of a :class:`~cp_stylize.atlas.Atlas`
+  maps through its triangle's barycentric coordinates to the 3-D point with
+  the same coordinates in that face, and takes the band's tricubic interpolant
+  there (paper, eq. (47)).  Texels just outside the islands (the margin)
+  continue their island's map onto the surface beyond its border (across the
+  seam), so bilinear filtering and mipmaps read the surface's own colours
+  there, never the background.
+- :func:`bake_map`: an image over a surface's parameters ``point(s, t)``.
+
+Images are float arrays (H, W, C), row 0 at the bottom (see :mod:`~cp_stylize.texture`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .arrays import count
+from .atlas import Atlas, check_mesh
+from .texture import texel_centres
+
+__all__ = ["bake_to_atlas", "bake_map"]
+
+#: Band interpolations at once (each builds 64 weights a point).
+_POINTS = 1 << 16
+#: Margin texels continue their island's map linearly this far out, in texels.
+_REACH = 2.0
+
+
+def _barycentric_2d(q, a, b, c):
+    """Barycentric coordinates (M, 3) of points ``q`` (M, 2) in triangles ``abc`` (unclamped)."""
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    v = ((q[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1])) / det
+    w = ((b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (q[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
+    return np.column_stack([1.0 - v - w, v, w])
+
+
+def _closest_in_triangle_2d(q, a, b, c):
+    """Points (M, 2) of triangles ``abc`` nearest to ``q`` (M, 2): inside, or on the nearest edge."""
+    def on_segment(p, r):
+        d = r - p
+        t = np.clip(np.einsum("ij,ij->i", q - p, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        return p + t[:, None] * d
+
+    candidates = np.stack([on_segment(a, b), on_segment(b, c), on_segment(c, a)])
+    gap = ((candidates - q[None]) ** 2).sum(axis=2)
+    nearest = candidates[np.argmin(gap, axis=0), np.arange(len(q))]
+    bary = _barycentric_2d(q, a, b, c)
+    inside = np.all(bary >= 0, axis=1)
+    return np.where(inside[:, None], q, nearest)
+
+
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
+    """Image of band values laid out on a UV atlas.
+
+    Parameters
+    ----------
+    band : Band
+        Built from the mesh the atlas belongs to.
+    values : ndarray, shape (N,) or (N, C)
+        Band values (a closest point extension, e.g. after diffusion).
+    atlas : Atlas
+        From :func:`uv_atlas`.
+    margin : int
+        Texels outside the UV islands, up to this distance, that receive the
+        value of the nearest island border point.
+    fill : float
+        Value of the texels farther than ``margin`` from every island.
+
+    Returns
+    -------
+    ndarray, shape (size, size, C)
+        Row 0 at the bottom; float64 values stay float64, others give float32.
+
+    Notes
+    -----
+    A covered texel with barycentric coordinates ``bary`` in face ``f`` maps
+    to the 3-D point ``sum_i bary_i V[f_i]``, which lies on the mesh (no
+    closest point search is needed), and takes the band's tricubic
+    interpolant there.  A margin texel finds its nearest covered texel (a
+    Euclidean distance transform) and continues that texel's face map
+    linearly: its UV point, pulled back to within two texels of the face's
+    UV triangle, has barycentric coordinates (some negative) that give a
+    point of the face's plane just beyond the face, which
+    ``mesh.closest_point`` snaps onto the surface, across the seam when there
+    is one.  Bilinear filtering at an island's border thus reads the colours
+    of the surface on the other side of the border, not a copy of the
+    border, and seams stay invisible to second order in the texel size;
+    farther margin texels repeat the colour two texels out, for mipmaps.
+    """
+    mesh = check_mesh(band.surface)
+    if not isinstance(atlas, Atlas):
+        raise TypeError(f"atlas must be an Atlas from uv_atlas, got {type(atlas).__name__}")
+    if atlas.uvs.shape[0] != mesh.n_input_faces:
+        raise ValueError(f"the atlas has UVs for {atlas.uvs.shape[0]} faces, but the band's mesh has "
+                         f"{mesh.n_input_faces}")
+    margin = count(margin, "margin", minimum=0, unit=" number of texels")
+    values = band.check_values(values)
+    size = atlas.size
+    corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
+    texels = [atlas.texels]
+    points = [np.einsum("mi,mij->mj", atlas.bary, corners[mesh.kept_index(atlas.face)])]
+
+    covered = atlas.coverage
+    if margin > 0 and len(atlas.texels):
+        distance, nearest = ndimage.distance_transform_edt(~covered, return_indices=True)
+        ring = np.flatnonzero((distance > 0) & (distance <= margin))
+        if len(ring):
+            owner = np.full(size * size, -1, dtype=np.int64)
+            owner[atlas.texels] = atlas.face
+            near = nearest[0].ravel()[ring] * size + nearest[1].ravel()[ring]
+            face = owner[near]
+            row, col = np.divmod(ring, size)
+            q = np.column_stack([(col + 0.5) / size, (row + 0.5) / size])
+            uv = atlas.uvs[face]
+            border = _closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+            out = np.linalg.norm(q - border, axis=1) * size
+            step = np.minimum(1.0, _REACH / np.where(out > 0, out, 1.0))
+            q = border + step[:, None] * (q - border)
+            bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+            plane = np.einsum("mi,mij->mj", bary, corners[mesh.kept_index(face)])
+            texels.append(ring)
+            points.append(mesh.closest_point(plane)[0])
+    texels = np.concatenate(texels)
+    points = np.concatenate(points)
+
+    channels = 1 if values.ndim == 1 else values.shape[1]
+    image = np.full((size * size, channels), fill, dtype=values.dtype)
+    for s in range(0, len(points), _POINTS):
+        out = band.interpolate(values, points[s:s + _POINTS])
+        image[texels[s:s + _POINTS]] = out.reshape(len(out), channels)
+    return image.reshape(size, size, channels)
+
+
+def bake_map(band, values, height, width):
+    """Image (height, width, C) of band ``values`` at the surface points ``point(s, t)`` of its texels."""
+    u, v = texel_centres(height, width)
+    points = band.surface.point(u.ravel(), v.ravel())
+    out = band.interpolate(values, points)
+    return out.reshape(height, width, -1)

@@ -1,0 +1,474 @@
+"""Exact closest points on a set of triangles: the spatial search.
+
+:class:`TriangleSearch` finds, for query points, the nearest point of the
+union of its triangles.  It is exact: every query ends with exact
+point-triangle distances, and the search drops a triangle only where a bound
+proves another one nearer.
+
+Query points are grouped into a hierarchy of cells: for the band
+(:meth:`TriangleSearch.band`), blocks of ``4^3`` grid points, their ``2^3``
+sub-blocks, then the points; for any other query (:meth:`TriangleSearch.nearest`),
+an octree over the points.  One routine, :meth:`TriangleSearch._descend`,
+narrows the cells' candidate triangles from level to level with two bounds:
+
+- a triangle farther than ``dmin + 2 delta`` from a cell's centre ``c``
+  (``dmin`` the least distance from ``c`` to the cell's candidates,
+  ``delta`` the cell's radius) is nearer to none of the cell's points;
+- the distance to a triangle is a convex function with a unit gradient
+  ``g``, so ``d(c + o) >= d(c) + g.o``: a child cell at offset ``o`` drops
+  the triangles whose bound exceeds a distance already known there.
+
+The coarsest lists come from the triangles' bounding boxes grown by the band
+width (for the band: Ruuth's ``tri2cp`` boxes, per block of grid points) or
+from a k-d tree of sample points that cover every triangle within a radius
+``r`` (for any other query).  Exact distances follow Ericson's regions
+(*Real-Time Collision Detection*, section 5.1.5), vectorised over (point,
+triangle) pairs.  Nothing scans the mesh's bounding box.
+
+Triangles are numbered as given; the results name them by that number.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .arrays import expand_runs, split_counts, unit_rows
+from .sparse import map_parallel, workers
+
+__all__ = ["TriangleSearch"]
+
+#: Points handled at once, about (band chunks, query chunks).
+_CHUNK = 1 << 17
+#: Side, in grid points, of the blocks that start the band search.
+_BLOCK = 4
+
+
+class TriangleSearch:
+    """The closest points on triangles ``(a, b, c)``, each array (K, 3) with non-degenerate rows.
+
+    The triangles are kept once, as contiguous columns: ``a`` and the edges
+    ``ab = b - a``, ``ac = c - a`` by component, and ``ab.ab``, ``ab.ac``,
+    ``ac.ac`` and the Gram determinant ``ab.ab ac.ac - ab.ac^2``.
+    """
+
+    def __init__(self, a, b, c):
+        ab, ac = b - a, c - a
+        abab = np.einsum("ij,ij->i", ab, ab)
+        acac = np.einsum("ij,ij->i", ac, ac)
+        abac = np.einsum("ij,ij->i", ab, ac)
+        columns = np.column_stack([a, ab, ac, abab, abac, acac, abab * acac - abac**2])
+        self._pack = [np.ascontiguousarray(col) for col in columns.T]
+        longest = np.sqrt(np.max([abab, acac, ((c - b) ** 2).sum(1)], axis=0)) if len(a) else np.zeros(1)
+        #: a length that bounds every coordinate: the scale of the search's rounding tolerances
+        self._scale = float(np.abs(np.concatenate([a, b, c])).max() + longest.max())
+        #: unit normals (K, 3) by the right-hand rule
+        self.normals = unit_rows(np.cross(ab, ac))[0]
+        self._tree = None
+
+    def __len__(self):
+        return len(self._pack[0])
+
+    def edges(self, tri=slice(None)):
+        """``a``, ``b - a`` and ``c - a`` (each (K, 3)) of the triangles ``tri``."""
+        pk = self._pack
+        return tuple(np.column_stack([pk[i][tri], pk[i + 1][tri], pk[i + 2][tri]]) for i in (0, 3, 6))
+
+    def on(self, x, tri):
+        """``(v, w)`` of the closest points of ``x`` (N, 3) on the given triangles ``tri`` (N,)."""
+        v, w, _, _ = self._closest(np.ascontiguousarray(np.asarray(x, dtype=np.float64).T), tri)
+        return v, w
+
+    def point(self, tri, v, w):
+        """The points ``a + v (b - a) + w (c - a)`` (N, 3) of the triangles ``tri``."""
+        pk = self._pack
+        return np.column_stack([pk[i][tri] + v * pk[3 + i][tri] + w * pk[6 + i][tri] for i in range(3)])
+
+    def _closest(self, p, tri):
+        """Closest points of ``p`` (3, P) on the kept triangles ``tri`` (P,).
+
+        Returns
+        -------
+        v, w : ndarray, shape (P,)
+            The closest point is ``a + v (b - a) + w (c - a)``.
+        r : tuple of 3 ndarrays (P,)
+            The offset ``p - cp``.
+        d2 : ndarray, shape (P,)
+            Its squared length.
+
+        Notes
+        -----
+        The closest point is the projection on the triangle's plane where
+        that falls inside the triangle (non-negative barycentric
+        coordinates), and otherwise the nearest of the clamped projections on
+        the three edges (the regions of Ericson, *Real-Time Collision
+        Detection*, section 5.1.5).  Every dot product follows from
+        ``ap = p - a`` and the triangle's ``ab.ab``, ``ab.ac``, ``ac.ac``;
+        arrays are gathered component by component so that every operation
+        runs on contiguous memory.
+        """
+        pk = self._pack
+        ax, ay, az = (p[i] - pk[i][tri] for i in range(3))
+        abx, aby, abz, acx, acy, acz = (pk[i][tri] for i in range(3, 9))
+        abab, abac, acac, denom = (pk[i][tri] for i in range(9, 13))
+        d1 = abx * ax + aby * ay + abz * az
+        d2 = acx * ax + acy * ay + acz * az
+        ap2 = ax * ax + ay * ay + az * az
+        # edges AB (v = t), AC (w = t) and BC (v = 1 - t, w = t)
+        t1 = np.clip(d1 / abab, 0.0, 1.0)
+        e1 = ap2 - t1 * (2.0 * d1 - t1 * abab)
+        t2 = np.clip(d2 / acac, 0.0, 1.0)
+        e2 = ap2 - t2 * (2.0 * d2 - t2 * acac)
+        bc2 = abab + acac - 2.0 * abac
+        s = d2 - d1 - abac + abab                      # bc.bp
+        t3 = np.clip(s / bc2, 0.0, 1.0)
+        e3 = ap2 - 2.0 * d1 + abab - t3 * (2.0 * s - t3 * bc2)
+        first = e1 <= e2
+        v = np.where(first, t1, 0.0)
+        w = np.where(first, 0.0, t2)
+        third = e3 < np.minimum(e1, e2)
+        v = np.where(third, 1.0 - t3, v)
+        w = np.where(third, t3, w)
+        # the plane, where the projection is inside
+        vn = acac * d1 - abac * d2
+        wn = abab * d2 - abac * d1
+        inside = (vn >= 0) & (wn >= 0) & (vn + wn <= denom)
+        v = np.where(inside, vn / denom, v)
+        w = np.where(inside, wn / denom, w)
+        rx = ax - v * abx - w * acx
+        ry = ay - v * aby - w * acy
+        rz = az - v * abz - w * acz
+        return v, w, (rx, ry, rz), rx * rx + ry * ry + rz * rz
+
+    def _build_index(self):
+        """Sample points covering every kept triangle within ``self._radius``, and their k-d tree."""
+        a, ab, ac = self.edges()
+        centroid = a + (ab + ac) / 3.0
+        corners = np.stack([a, a + ab, a + ac], axis=1)
+        reach = np.linalg.norm(corners - centroid[:, None, :], axis=2).max(axis=1)
+        # subdivide triangles much larger than the typical one, within a sample budget
+        self._typical = float(np.median(reach))
+        target = 2.0 * self._typical
+        budget = max(4 * len(reach), 100_000)
+        while True:
+            m = np.maximum(1, np.ceil(reach / target * (1 - 1e-12))).astype(np.int64)
+            if (m**2).sum() <= budget:
+                break
+            target *= 1.5
+        points, owner = [], []
+        for level in np.unique(m):
+            tris = np.flatnonzero(m == level)
+            bary = _subdivision_centroids(int(level))
+            p = (a[tris, None, :] + bary[None, :, 1:2] * ab[tris, None, :]
+                 + bary[None, :, 2:3] * ac[tris, None, :])
+            points.append(p.reshape(-1, 3))
+            owner.append(np.repeat(tris, len(bary)))
+        self._samples = np.concatenate(points)
+        self._owner = np.concatenate(owner)
+        self._radius = float((reach / m).max()) * (1 + 1e-9)
+        self._tree = cKDTree(self._samples)
+
+    def _descend(self, centres, deltas, parents, cells, tris, width=None):
+        """Closest triangles of the points at the bottom of a hierarchy of cells.
+
+        Parameters
+        ----------
+        centres, deltas, parents : lists over levels
+            Level ``l`` has cells with centres (3, n_l), radii (n_l,) such
+            that every point of a cell lies within its radius of its centre,
+            and (for ``l > 0``) the index of each cell's parent in level
+            ``l - 1``.  The last level is the query points (radius 0).
+        cells, tris : ndarray of int64
+            Pairs (level-0 cell, triangle), sorted by cell, that include the
+            face holding the closest point of every point of the cell (with
+            ``width``: every face within ``width`` of one of them).
+        width : float, optional
+            Drop the points farther than this from the mesh.
+
+        Returns
+        -------
+        face : ndarray of int64
+            Triangle of the closest point of every query point, -1 if dropped.
+        d2 : ndarray
+            Squared distances.
+
+        Notes
+        -----
+        With ``dmin`` the least distance from a cell's centre ``c`` to its
+        faces and ``delta`` its radius, a face farther than ``dmin + 2 delta``
+        from ``c`` is nearer to none of the cell's points.  A child cell at
+        ``c + o`` first bounds its parent's faces from below: the distance to
+        a triangle is a convex function with gradient ``g`` of unit length,
+        so it exceeds ``d(c) + g.o - delta_child`` throughout the child (and
+        ``d(c) - |o| - delta_child`` in any case; where ``d(c)`` is near
+        zero, rounding makes ``g`` unreliable and this bound takes over).  Faces
+        whose bound exceeds the distance from the child's centre to the
+        parent's nearest face, plus ``delta_child``, are dropped before the
+        exact distances of the rest are taken.
+        """
+        eps = 1e-9 * self._scale
+        last = len(centres) - 1
+        _, _, r, d2 = self._closest(centres[0][:, cells], tris)
+        level = 0
+        while True:
+            n = len(deltas[level])
+            delta = deltas[level]
+            d = np.sqrt(d2)
+            start = np.flatnonzero(np.r_[True, cells[1:] != cells[:-1]]) if len(cells) else cells[:0]
+            least = np.full(n, np.inf)
+            if len(start):
+                least[cells[start]] = np.minimum.reduceat(d, start)
+            if level == last:
+                keep = d <= least[cells]
+                if width is not None:
+                    keep &= d <= width
+                hit = np.flatnonzero(keep)
+                hit = hit[np.r_[True, cells[hit][1:] != cells[hit][:-1]]] if len(hit) else hit
+                face = np.full(n, -1, dtype=np.int64)
+                face[cells[hit]] = tris[hit]
+                dist2 = np.full(n, np.inf)
+                dist2[cells[hit]] = d2[hit]
+                return face, dist2
+            keep = d <= least[cells] + 2.0 * delta[cells] + eps
+            if width is not None:
+                keep &= least[cells] - delta[cells] <= width + eps
+            cells, tris, d = cells[keep], tris[keep], d[keep]
+            inv = 1.0 / np.where(d > 0, d, np.inf)
+            g = [c[keep] * inv for c in r]
+            # |g - gradient| is at most twice the rounding error of r over d
+            slack = np.minimum(2e-12 * self._scale * inv, 2.0)
+            best = np.flatnonzero(d <= least[cells])
+            best = best[np.r_[True, cells[best][1:] != cells[best][:-1]]] if len(best) else best
+            nearest = np.zeros(n, dtype=np.int64)
+            nearest[cells[best]] = tris[best]
+            count = np.bincount(cells, minlength=n)
+            first = np.cumsum(count) - count
+            nxt = level + 1
+            parent, centre, radius = parents[nxt], centres[nxt], deltas[nxt]
+            offset = centre - centres[level][:, parent]
+            step = np.sqrt((offset * offset).sum(axis=0))
+            run, pos = expand_runs(count[parent])
+            src = first[parent[run]] + pos
+            ahead = g[0][src] * offset[0][run] + g[1][src] * offset[1][run] + g[2][src] * offset[2][run]
+            bound = d[src] + np.maximum(ahead - slack[src] * step[run], -step[run]) - radius[run]
+            kids = np.flatnonzero(count[parent] > 0)
+            _, _, _, up2 = self._closest(centre[:, kids], nearest[parent[kids]])
+            upper = np.full(len(parent), np.inf)
+            upper[kids] = np.sqrt(up2) + radius[kids]
+            keep = bound <= upper[run] + eps
+            if width is not None:
+                keep &= bound <= width + eps
+            cells, tris = run[keep], tris[src[keep]]
+            level = nxt
+            _, _, r, d2 = self._closest(centre[:, cells], tris)
+
+    def _levels(self, x):
+        """Finest cell side and number of coarser levels for the query points ``x``."""
+        sub = np.unique(x[:: max(1, len(x) // 20000), 0])
+        gaps = np.diff(sub)
+        spacing = float(np.median(gaps)) if len(gaps) else 0.0
+        typical = self._typical
+        fine = 2.0 * spacing if spacing > 0 else typical
+        fine = min(max(fine, typical / 8.0), 8.0 * typical)
+        top = max(4.0 * fine, 2.0 * typical)
+        return fine, int(np.clip(np.round(np.log2(top / fine)), 0, 6))
+
+    def nearest(self, x):
+        """Triangle, ``v``, ``w`` and squared distance of the closest point of every row of ``x`` (N, 3).
+
+        The closest point of ``x[i]`` is :meth:`point` ``(tri[i], v[i], w[i])``.
+
+        The query points are grouped into an octree of cells (level 0, the
+        coarsest, to ``L``, then the points themselves) and
+        :meth:`_descend` narrows each cell's faces down the levels.  A
+        level-0 cell starts from the faces with a sample within
+        ``d + 2 delta + r`` of its centre ``c`` (``d`` the distance from ``c``
+        to its nearest sample, ``delta`` the cell's radius): every point of
+        the cell lies within ``d + delta`` of the mesh, and every point of a
+        face within ``r`` of one of its samples.
+        """
+        if self._tree is None:
+            self._build_index()
+        n = len(x)
+        fine, L = self._levels(x)
+        origin = x.min(axis=0) - 0.25 * fine
+        g = np.floor((x - origin) / fine).astype(np.int64)
+        keys = []
+        for level in range(L + 1):
+            c = g >> (L - level)
+            dims = c.max(axis=0) + 1
+            keys.append((c[:, 0] * dims[1] + c[:, 1]) * dims[2] + c[:, 2])
+        order = np.lexsort(keys[::-1])
+        keys = [k[order] for k in keys]
+        xs = x[order]
+        top = np.flatnonzero(np.r_[True, keys[0][1:] != keys[0][:-1]])
+        at = np.searchsorted(top, np.arange(0, n, _CHUNK // 4))
+        cuts = np.unique(np.r_[top[at[at < len(top)]], n])
+        face = np.empty(n, dtype=np.int64)
+        for s, e in zip(cuts[:-1], cuts[1:]):
+            face[order[s:e]] = self._nearest_sorted(xs[s:e], [k[s:e] for k in keys])
+        if np.any(face < 0):
+            raise RuntimeError("the closest point search lost a point; this is a bug")
+        v, w, _, d2 = self._closest(np.ascontiguousarray(x.T), face)
+        return face, v, w, d2
+
+    def _nearest_sorted(self, xs, keys):
+        """Closest triangles of points ``xs`` sorted by their cell keys at every level."""
+        centres, deltas, parents, point_cell = [], [], [], None
+        for key in keys:
+            change = np.r_[True, key[1:] != key[:-1]]
+            start = np.flatnonzero(change)
+            lo = np.minimum.reduceat(xs, start, axis=0)
+            hi = np.maximum.reduceat(xs, start, axis=0)
+            centres.append(np.ascontiguousarray((0.5 * (lo + hi)).T))
+            deltas.append(0.5 * np.linalg.norm(hi - lo, axis=1) * (1 + 1e-12))
+            parents.append(None if point_cell is None else point_cell[start])
+            point_cell = np.cumsum(change) - 1
+        centres.append(np.ascontiguousarray(xs.T))
+        deltas.append(np.zeros(len(xs)))
+        parents.append(point_cell)
+        eps = 1e-9 * self._scale
+        d, _ = self._tree.query(centres[0].T, k=1)
+        found = self._tree.query_ball_point(centres[0].T, d + 2.0 * deltas[0] + self._radius + eps,
+                                            return_sorted=False)
+        counts = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
+        samples = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(counts.sum()))
+        n_faces = len(self)
+        pair = np.unique(np.repeat(np.arange(len(found)), counts) * n_faces + self._owner[samples])
+        face, _ = self._descend(centres, deltas, parents, pair // n_faces, pair % n_faces)
+        return face
+
+    def band(self, h, width):
+        """The grid points within ``width`` of the triangles with their closest points, in chunks.
+
+        Parameters
+        ----------
+        h : float
+            Grid spacing; grid points are ``h * ijk``.
+        width : float
+            Band half-width.
+
+        Yields
+        ------
+        ijk : ndarray of int64, shape (K, 3)
+            Distinct integer grid coordinates, with every grid point within
+            ``width`` among them exactly once over all chunks (and a few
+            whose distance exceeds ``width`` by rounding: the caller keeps
+            ``sqrt(d2) <= width``).
+        tri, v, w, d2
+            As :meth:`nearest` returns them for ``h * ijk``.
+
+        Notes
+        -----
+        The grid is cut into blocks of ``4^3`` points.  A triangle is a
+        candidate of a block when the block meets the triangle's bounding
+        box grown by ``width`` and the block's centre lies within ``width``
+        plus the block's radius of the triangle's plane.  The candidate
+        lists then narrow through the blocks' ``2^3`` sub-blocks down to the
+        points (see the module notes).  Nothing scans the mesh's bounding
+        box.
+        """
+        h, width = float(h), float(width)
+        if not np.isfinite(h) or h <= 0:
+            raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
+        if not np.isfinite(width) or width < 0:
+            raise ValueError(f"width must be a non-negative number, got {width!r}")
+        blocks, pair_block, pair_tri = self._block_pairs(h, width)
+        local = np.stack(np.meshgrid(*[np.arange(_BLOCK)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+        half = _BLOCK // 2
+        corner = np.stack(np.meshgrid(*[np.arange(2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+        sub_of_point = ((local // half) * [4, 2, 1]).sum(axis=1)
+        sub_offset = half * corner + 0.5 * (half - 1)
+        # chunks of blocks with a bounded number of points and (sub-block, triangle) pairs
+        per_block = np.bincount(pair_block, minlength=len(blocks))
+        pair_start = np.r_[0, np.cumsum(per_block)]
+        chunks = split_counts(np.maximum(8 * per_block, len(local)), 4 * _CHUNK)
+
+        def search(bounds):
+            s, e = bounds
+            b = blocks[s:e]
+            nb = len(b)
+            p0, p1 = pair_start[s], pair_start[e]
+            cells, tris = pair_block[p0:p1] - s, pair_tri[p0:p1]
+            base = _BLOCK * b
+            ijk = (base[:, None, :] + local[None, :, :]).reshape(-1, 3)
+            centres = [
+                np.ascontiguousarray((h * (base + 0.5 * (_BLOCK - 1))).T),
+                np.ascontiguousarray((h * (base[:, None, :] + sub_offset[None, :, :])).reshape(-1, 3).T),
+                np.ascontiguousarray((h * ijk).T),
+            ]
+            deltas = [np.full(nb, 0.5 * (_BLOCK - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
+                      np.full(nb * 8, 0.5 * (half - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
+                      np.zeros(len(ijk))]
+            parents = [None, np.repeat(np.arange(nb), 8),
+                       (np.arange(nb)[:, None] * 8 + sub_of_point[None, :]).ravel()]
+            face, _ = self._descend(centres, deltas, parents, cells, tris, width=width)
+            keep = np.flatnonzero(face >= 0)
+            if len(keep) == 0:
+                return None
+            v, w, _, d2 = self._closest(centres[2][:, keep], face[keep])
+            return ijk[keep], face[keep], v, w, d2
+
+        # the chunks are independent: a few at a time, side by side on the worker threads
+        spans = list(zip(chunks[:-1], chunks[1:]))
+        step = 2 * workers()
+        for k in range(0, len(spans), step):
+            for found in map_parallel(search, spans[k:k + step]):
+                if found is not None:
+                    yield found
+
+    def _block_pairs(self, h, width):
+        """Blocks near the mesh and their candidate triangles.
+
+        Returns the distinct block coordinates (B, 3) and the pairs (block
+        index, triangle) sorted by block.
+        """
+        side = _BLOCK * h
+        a, ab, ac = self.edges()
+        corners = np.stack([a, a + ab, a + ac], axis=1)
+        pad = 1e-9 * (1.0 + np.abs(corners).max() / side)
+        lo = np.floor((corners.min(axis=1) - width) / side - pad).astype(np.int64)
+        hi = np.floor((corners.max(axis=1) + width) / side + pad).astype(np.int64)
+        extent = hi - lo + 1
+        counts = extent.prod(axis=1)
+        slack = (width + 0.5 * np.sqrt(3.0) * (_BLOCK - 1) * h) * (1 + 1e-9)
+        origin = np.min(lo, axis=0)
+        dims = np.max(hi, axis=0) - origin + 1
+        keys, owners = [], []
+        bounds = split_counts(counts, _CHUNK * 8)
+        for s, e in zip(bounds[:-1], bounds[1:]):
+            tri, pos = expand_runs(counts[s:e])
+            ext = extent[s:e][tri]
+            iz = pos % ext[:, 2]
+            iy = (pos // ext[:, 2]) % ext[:, 1]
+            ix = pos // (ext[:, 2] * ext[:, 1])
+            block = lo[s:e][tri] + np.column_stack([ix, iy, iz])
+            tri += s
+            centre = h * (_BLOCK * block + 0.5 * (_BLOCK - 1))
+            near = np.abs(np.einsum("ij,ij->i", centre - a[tri], self.normals[tri])) <= slack
+            rel = block[near] - origin
+            keys.append((rel[:, 0] * dims[1] + rel[:, 1]) * dims[2] + rel[:, 2])
+            owners.append(tri[near])
+        keys, owners = np.concatenate(keys), np.concatenate(owners)
+        order = np.argsort(keys, kind="stable")
+        keys, owners = keys[order], owners[order]
+        unique, pair_block = np.unique(keys, return_inverse=True)
+        rel = np.column_stack([unique // (dims[1] * dims[2]), (unique // dims[2]) % dims[1], unique % dims[2]])
+        return rel + origin, pair_block.astype(np.int64), owners
+
+
+
+def _subdivision_centroids(m):
+    """Barycentric centroids (m^2, 3) of the regular subdivision of a triangle into m^2 triangles."""
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    up = (i + j) <= m - 1
+    iu, ju = i[up], j[up]
+    upward = np.column_stack([iu + 1 / 3, ju + 1 / 3, m - 1 - iu - ju + 1 / 3]) / m
+    down = (i + j) <= m - 2
+    idn, jdn = i[down], j[down]
+    downward = np.column_stack([idn + 2 / 3, jdn + 2 / 3, m - 2 - idn - jdn + 2 / 3]) / m
+    return np.vstack([upward, downward])
+
+

@@ -1,0 +1,29 @@
+"""The README's parameter tables are the ones cp_stylize/parameters.py gives."""
+
+import pytest
+
+from cp_stylize.parameters import FILTER_PARAMETERS, FILTERS, RUN
+from cp_stylize_dev import docs
+
+
+def test_the_readme_holds_the_tables_of_the_parameter_table():
+    with open(docs.README, encoding="utf-8") as f:
+        text = f.read()
+    assert docs.block() in text, "README.md is out of date: run `python -m cp_stylize docs`"
+
+
+def test_every_parameter_has_a_row_with_its_limits_and_each_modes_default():
+    rows = {line.split(" | ")[1]: line for line in docs.tables().splitlines() if line.startswith("| **")}
+    assert set(rows) == {f"`{p}`" for p in (*RUN, *FILTER_PARAMETERS)}
+    for p in FILTER_PARAMETERS.values():
+        cells = rows[f"`{p.name}`"].strip("| ").split(" | ")
+        assert cells[3] == f"{p.minimum:g} to {p.maximum:g}"
+        assert cells[4:4 + len(FILTERS)] == [f"{f.defaults[p.name]:g}" if p.name in f.defaults else ""
+                                             for f in FILTERS.values()]
+
+
+def test_writing_replaces_only_the_block():
+    text = f"before\n{docs.BEGIN}\nold table\n{docs.END}\nafter\n"
+    assert docs.written(text) == f"before\n{docs.block()}\nafter\n"
+    with pytest.raises(ValueError, match="markers once"):
+        docs.written("no markers")

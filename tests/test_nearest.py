@@ -1,0 +1,51 @@
+"""The closest point search on triangles: its pruning never loses the nearest triangle."""
+
+import numpy as np
+import pytest
+
+from cp_stylize.nearest import TriangleSearch
+
+
+def _soup(n, seed):
+    """``n`` random, non-degenerate triangles in the unit cube, of mixed sizes."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-1, 1, (n, 3))
+    size = rng.choice([0.02, 0.2, 1.0], n)[:, None]
+    return a, a + size * rng.normal(size=(n, 3)), a + size * rng.normal(size=(n, 3))
+
+
+def _brute_force(search, x):
+    """Squared distance from every point to every triangle, by the exact point-triangle formula."""
+    k = len(search)
+    p = np.repeat(x, k, axis=0)
+    tri = np.tile(np.arange(k), len(x))
+    *_, d2 = search._closest(np.ascontiguousarray(p.T), tri)
+    return d2.reshape(len(x), k)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_search_finds_the_nearest_triangle_of_every_point(seed):
+    search = TriangleSearch(*_soup(150, seed))
+    x = np.random.default_rng(10 + seed).uniform(-1.5, 1.5, (400, 3))
+    tri, v, w, d2 = search.nearest(x)
+    all_d2 = _brute_force(search, x)
+    np.testing.assert_allclose(d2, all_d2.min(axis=1), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(np.sum((search.point(tri, v, w) - x) ** 2, axis=1), d2, rtol=1e-9, atol=1e-15)
+    assert np.all((v >= 0) & (w >= 0) & (v + w <= 1 + 1e-12))
+
+
+def test_the_band_holds_every_grid_point_within_its_width_once():
+    corners = _soup(60, 5)
+    search = TriangleSearch(*corners)
+    h, width = 0.1, 0.23
+    chunks = list(search.band(h, width))
+    ijk = np.concatenate([c[0] for c in chunks])
+    d2 = np.concatenate([c[4] for c in chunks])
+    inside = np.sqrt(d2) <= width
+    found = {tuple(p) for p in ijk[inside]}
+    assert len(found) == inside.sum()                        # no grid point twice
+    points = np.concatenate(corners)
+    lo, hi = np.floor((points.min(axis=0) - width) / h), np.ceil((points.max(axis=0) + width) / h)
+    grid = np.stack(np.meshgrid(*[np.arange(a, b + 1) for a, b in zip(lo, hi)], indexing="ij"), axis=-1).reshape(-1, 3)
+    near = np.sqrt(_brute_force(search, h * grid).min(axis=1)) <= width
+    assert found == {tuple(p) for p in grid[near].astype(np.int64)}
