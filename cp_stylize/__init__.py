@@ -3,7 +3,7 @@
 The numerical core (this package, except :mod:`cp_stylize.blender`) needs only
 NumPy and SciPy.  Public API:
 
-- surfaces: :class:`Sphere`, :class:`Torus`, :class:`TriangleMesh`;
+- surfaces: :class:`Sphere`, :class:`Torus`, :class:`Ellipsoid`, :class:`TriangleMesh`;
 - the computational band: :class:`Band` (closest points, extension E, Laplacian L);
 - surface heat flow: :func:`heat`;
 - anisotropic and nonlinear surface diffusion: :func:`diffuse` (modes :data:`MODES`).
@@ -15,7 +15,8 @@ add-on does when it is enabled) does not import SciPy.
 import importlib
 
 _PUBLIC = {"Band": "band", "band_width": "band", "MODES": "parameters", "diffuse": "diffusion", "heat": "heat_flow",
-           "TriangleMesh": "mesh", "Sphere": "surfaces", "Torus": "surfaces"}
+           "TriangleMesh": "mesh", "Sphere": "surfaces", "Torus": "surfaces",
+           "Ellipsoid": "surfaces"}
 
 __all__ = sorted(_PUBLIC)
 __version__ = "0.1.0"

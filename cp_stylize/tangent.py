@@ -17,8 +17,10 @@ from __future__ import annotations
 import numpy as np
 
 from .arrays import unit_rows
+from .stencils import TENSOR_COMPONENTS
 
-__all__ = ["householder_basis", "jacobian_normals", "surface_normals", "tangent_basis"]
+__all__ = ["householder_basis", "jacobian_normals", "surface_normals", "tangent_basis", "GridDifferences",
+           "symmetric_rows", "symmetric_matrices"]
 
 _CHUNK = 1 << 16
 
@@ -83,44 +85,71 @@ def jacobian_normals(band, *, extend=True):
     normal within ``h`` of the surface but up to 9 degrees at the band's
     edge, and the extended one within 1 degree everywhere.
     """
-    axes = np.eye(3, dtype=np.int64)
-    plus, minus = band.neighbors(axes), band.neighbors(-axes)
-    h = band.h
+    differences = GridDifferences(band)
     normals = np.empty((band.size, 3))
     for s in range(0, band.size, _CHUNK):
         e = min(s + _CHUNK, band.size)
-        rows = np.arange(s, e)
-        p, m = plus[s:e], minus[s:e]
-        D = np.empty((e - s, 3, 3))
-        for a in range(3):
-            hi = np.where(p[:, a] >= 0, p[:, a], rows)
-            lo = np.where(m[:, a] >= 0, m[:, a], rows)
-            span = h * ((p[:, a] >= 0).astype(np.float64) + (m[:, a] >= 0))
-            D[:, :, a] = (band.cp[hi] - band.cp[lo]) / np.where(span > 0, span, 1.0)[:, None]
+        D = differences(band.cp, s, e)
         values, vectors = np.linalg.eigh(0.5 * (D + D.transpose(0, 2, 1)))
         nearest = np.argmin(np.abs(values), axis=1)
         n = np.take_along_axis(vectors, nearest[:, None, None], axis=2)[:, :, 0]
-        lost = ~np.all((p >= 0) | (m >= 0), axis=1)
+        lost = differences.lost(s, e)
         if lost.any():
             off, length = unit_rows(band.points[s:e][lost] - band.cp[s:e][lost])
-            if np.any(length < 0.5 * h):
+            if np.any(length < 0.5 * band.h):
                 raise RuntimeError("a band point near the surface lacks grid neighbours; the band is too thin")
             n[lost] = off
         normals[s:e] = n
     if extend:
-        pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-        lines = np.column_stack([normals[:, a] * normals[:, b] for a, b in pairs])
-        lines = band.extend(lines.astype(np.float32))
+        lines = band.extend(symmetric_rows(normals[:, :, None] * normals[:, None, :]).astype(np.float32))
         for s in range(0, band.size, _CHUNK):
             e = min(s + _CHUNK, band.size)
-            M = np.empty((e - s, 3, 3))
-            for k, (a, b) in enumerate(pairs):
-                M[:, a, b] = M[:, b, a] = lines[s:e, k]
-            normals[s:e] = np.linalg.eigh(M)[1][:, :, 2]
+            normals[s:e] = np.linalg.eigh(symmetric_matrices(lines[s:e], np.float64))[1][:, :, 2]
     offset = band.points - band.cp
     flip = np.einsum("ij,ij->i", normals, offset) < 0
     normals[flip] *= -1.0
     return normals
+
+
+class GridDifferences:
+    """Derivatives of band functions along the grid axes, by differences of grid neighbours.
+
+    Central differences where both neighbours along an axis are in the band,
+    one-sided where one is, zero where neither is (:meth:`lost` says where).
+    """
+
+    def __init__(self, band):
+        axes = np.eye(3, dtype=np.int64)
+        self.plus, self.minus, self.h = band.neighbors(axes), band.neighbors(-axes), band.h
+
+    def __call__(self, values, s, e):
+        """``d values_k / d x_a`` (e - s, k, 3) at band points ``s:e`` of ``values`` (N, k)."""
+        rows = np.arange(s, e)
+        p, m = self.plus[s:e], self.minus[s:e]
+        D = np.empty((e - s, values.shape[1], 3))
+        for a in range(3):
+            hi = np.where(p[:, a] >= 0, p[:, a], rows)
+            lo = np.where(m[:, a] >= 0, m[:, a], rows)
+            span = self.h * ((p[:, a] >= 0).astype(np.float64) + (m[:, a] >= 0))
+            D[:, :, a] = (values[hi] - values[lo]) / np.where(span > 0, span, 1.0)[:, None]
+        return D
+
+    def lost(self, s, e):
+        """Band points ``s:e`` with an axis along which neither neighbour is in the band."""
+        return ~np.all((self.plus[s:e] >= 0) | (self.minus[s:e] >= 0), axis=1)
+
+
+def symmetric_rows(M):
+    """The six components (N, 6) of symmetric matrices (N, 3, 3), in ``TENSOR_COMPONENTS`` order."""
+    return np.column_stack([M[:, a, b] for a, b in TENSOR_COMPONENTS])
+
+
+def symmetric_matrices(rows, dtype=None):
+    """Symmetric matrices (N, 3, 3) from their six components (N, 6); see :func:`symmetric_rows`."""
+    M = np.empty((len(rows), 3, 3), dtype=rows.dtype if dtype is None else dtype)
+    for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+        M[:, a, b] = M[:, b, a] = rows[:, k]
+    return M
 
 
 def surface_normals(band, normals=None):
