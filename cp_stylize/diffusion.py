@@ -28,7 +28,8 @@ from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
 from .structure import eigen_2x2, invariants, outer_products, products, reduce_to_tangent, structure_tensor
-from .tangent import tangent_basis
+from .arrays import unit_rows
+from .tangent import surface_normals, tangent_basis
 
 __all__ = ["diffuse", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
 
@@ -45,8 +46,8 @@ LAG = 0.02
 _TINY = 1e-30
 
 
-def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, normals=None, progress=None,
-            **params):
+def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, normals=None, field=None,
+            progress=None, **params):
     """Filter band values by surface-intrinsic diffusion to time ``T``.
 
     Parameters
@@ -84,6 +85,13 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         Normals for the tangent basis (see :func:`cp_stylize.tangent.surface_normals`):
         by default the surface's own (analytic for Sphere and Torus), else the
         Jacobian of the closest point function (eqs. (32)-(33)).
+    field : ndarray (N, 3), optional
+        ``"flow"`` only, and needed there: the direction field the strokes
+        follow at the band's closest points (a line field: ``e`` and ``-e``
+        are the same), such as ``principal_curvatures(band).e2``.  Its
+        tangential part is used; its length, clipped to [0, 1], is the
+        confidence in it: where it is 0 the diffusion falls back to
+        Perona-Malik's isotropic ``g``.
     progress : callable, optional
         ``progress(fraction)`` as the run advances; an exception it raises
         stops the run and propagates (the input is never modified).
@@ -102,7 +110,14 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         CED's ``B = b_rel * ||c0||_inf``, eq. (53), with ``c0`` the coherence of ``u0``.
     lambda_rel : float, optional
         Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
-        Perona-Malik and Beltrami: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
+        Perona-Malik, Beltrami and Flow: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
+    beta, contrast : float, optional
+        Flow (seed 004): the largest diffusivity across the field,
+        ``G = beta / (1 + |grad u_sigma|^2 / lambda^2)``, and the strength of
+        the contrast term ``f(u) = (1 - |u|)(|u| - 1/2) u`` (values scaled to
+        their initial range), at the rate ``4 contrast / T``: a mid-grey
+        moves ``contrast`` e-folds towards black or white over the run,
+        whatever the size of the object.
 
     Returns
     -------
@@ -179,6 +194,14 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
     u0 = band.check_values(u0)
     if not np.all(np.isfinite(u0)):
         raise ValueError("u0 holds NaN or infinite values")
+    if (mode == "flow") != (field is not None):
+        raise ValueError("mode 'flow' needs field=, an (N, 3) direction field such as "
+                         "principal_curvatures(band).e2" if mode == "flow" else
+                         f"field= is for mode 'flow' only, not {mode!r}")
+    if field is not None:
+        field = np.asarray(field, dtype=np.float64)
+        if field.shape != (band.size, 3) or not np.all(np.isfinite(field)):
+            raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {field.shape}")
     tau = PAPER_CFL * band.h**2 if tau is None else float(tau)
     n_steps, tau = time_steps(T, tau)
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
@@ -186,8 +209,9 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
     lo, hi = rows.min(axis=1, keepdims=True), rows.max(axis=1, keepdims=True)
     smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
-    flow = _Flow(band, rows.dtype, mode, params, normals, smoothing)
+    flow = _Flow(band, rows.dtype, mode, params, normals, smoothing, field)
     flow.normalise(rows)
+    reaction = flow.reaction(lo, hi, 4.0 * params["contrast"] / T) if mode == "flow" and params["contrast"] > 0 else None
     lag = 0.0 if scheme == "reference" else lag
     inner = band.inner
     span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
@@ -197,7 +221,8 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
             report = None if progress is None else (lambda f, s=step: progress((s + 0.9 * f) / n_steps))
             A, extra = flow.operator(rows, report)
             built_from = rows[:, inner].copy() if lag > 0 else None
-        _step(rows, A, extra, flow.laplacian, flow.E, tau, flow.stable_step, clamp and (lo, hi))
+        stable = flow.stable_step if reaction is None else min(flow.stable_step, flow.reaction_step)
+        _step(rows, A, extra, flow.laplacian, flow.E, tau, stable, clamp and (lo, hi), reaction)
         _check(rows, step, n_steps, progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
 
@@ -309,9 +334,9 @@ class _Flow:
     same for both schemes, computed in the smoothing's precision.
     """
 
-    def __init__(self, band, dtype, mode, params, normals, smoothing):
+    def __init__(self, band, dtype, mode, params, normals, smoothing, field=None):
         self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
-        self.normals = normals
+        self.normals, self.field = normals, field
         self.E = band.split_matrix("E", dtype)
         self.laplacian = band.split_matrix("L", dtype) if mode in ("gaussian", "beltrami") else None
         self.scale = 0.0
@@ -324,7 +349,8 @@ class _Flow:
         # the parts are independent: build them side by side on the worker threads, the large ones first
         smoothing_parts = self.smoothing.builds()
         parts = smoothing_parts[:1] + [self._build_divergence] + smoothing_parts[1:]
-        map_parallel(lambda build: build(), parts + [self._build_tangents] * (mode in ("eed", "ced")))
+        map_parallel(lambda build: build(), parts + [self._build_tangents] * (mode in ("eed", "ced"))
+                     + [self._build_field] * (mode == "flow"))
 
     def _build_divergence(self):
         self.divergence = DivergenceOperator(self.band, self.dtype)
@@ -335,12 +361,37 @@ class _Flow:
         Q = tangent_basis(self.band, self.normals)
         self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
 
+    def _build_field(self):
+        """The field's unit tangent direction e (3, N), its confidence (N,) and the tangent projector (6, N)."""
+        n = surface_normals(self.band, self.normals)
+        tangential = self.field - np.sum(self.field * n, axis=1)[:, None] * n
+        e, length = unit_rows(tangential, (1.0, 0.0, 0.0))
+        self.confidence = np.clip(length, 0.0, 1.0).astype(self.work)
+        self.direction = np.ascontiguousarray(e.T, dtype=self.work)
+        self.projector = np.stack([float(a == b) - n[:, a] * n[:, b] for a, b in TENSOR_COMPONENTS]).astype(self.work)
+
+    def reaction(self, lo, hi, rate):
+        """The contrast term ``rate * f(v)`` of rows (C, N), with values scaled to ``[lo, hi]`` (C, 1).
+
+        ``f(u) = (1 - |u|)(|u| - 1/2) u`` (seed 004, its colour form); the
+        step limit keeps ``rate * dt`` at most 1, where ``|f'| <= 1/2`` on [0, 1].
+        """
+        span = np.maximum(hi - lo, np.finfo(lo.dtype).tiny)
+        self.reaction_step = 1.0 / rate
+
+        def term(rows):
+            u = (rows - lo) / span
+            size = np.sqrt(np.sum(u * u, axis=0))
+            return (rate * (1.0 - size) * (size - 0.5)) * u * span
+
+        return term
+
     def normalise(self, rows):
         """Scale-free parameters from the initial data (section 4.5)."""
         if self.mode in ("eed", "ced"):
             self._initial = self._coherence(rows)  # the first step reuses it
             self.scale = float(self._initial[0].max())
-        elif self.mode in ("perona_malik", "beltrami"):
+        elif self.mode in ("perona_malik", "beltrami", "flow"):
             self.scale = self.smoothing.gradient_scale(rows)
 
     def _coherence(self, rows, progress=None):
@@ -379,6 +430,8 @@ class _Flow:
                 G[k] *= k2
                 G[k] += difference * w[a] * w[b]
             return self._fill(G), None
+        if self.mode == "flow":
+            return self._fill(self._field_tensor(rows, progress)), None
         # Perona-Malik and Beltrami: scalar edge stopping from the current gradient
         beltrami = self.mode == "beltrami"
         trace, second = self.smoothing.invariants(self.smoothing.presmoothed(rows) if beltrami else rows, beltrami)
@@ -395,16 +448,38 @@ class _Flow:
         return self._fill(_isotropic(inv)), inv.astype(self.dtype)
 
 
-def _step(rows, A, extra, laplacian, E, tau, stable_step, bounds):
-    """One outer step ``v <- E (v + tau (A v + extra L v))`` in place, in equal parts where A needs them."""
+    def _field_tensor(self, rows, progress=None):
+        """Seed 004's ``G = g P + c (alpha - g) e e^T`` (6, N): ``alpha`` along the field's direction e,
+        ``g = beta / (1 + |grad u_sigma|^2 / lambda^2)`` across it, isotropic ``g`` where the confidence c is 0."""
+        p = self.params
+        trace, _ = self.smoothing.invariants(self.smoothing.presmoothed(rows), False)
+        if progress is not None:
+            progress(1.0)
+        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
+        g = (p["beta"] / (1.0 + trace / lam2)).astype(self.work)
+        along = self.confidence * (p["alpha"] - g)
+        e = self.direction
+        G = np.empty((6, self.band.size), dtype=self.work)
+        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
+            np.multiply(g, self.projector[k], out=G[k])
+            G[k] += along * e[a] * e[b]
+        return G
+
+
+def _step(rows, A, extra, laplacian, E, tau, stable_step, bounds, reaction=None):
+    """One outer step ``v <- E (v + tau (A v + extra L v + r(v)))`` in place, in equal parts where A
+    (or the reaction ``r``) needs them."""
     sub = max(1, int(np.ceil(tau / stable_step - 1e-9)))
     dt = rows.dtype.type(tau / sub)
     for _ in range(sub):
+        react = None if reaction is None else reaction(rows)
         for j in range(len(rows)):
             v = rows[j]
             change = A @ v
             if extra is not None:
                 change += extra * (laplacian @ v)
+            if react is not None:
+                change += react[j]
             change *= dt
             change += v
             rows[j] = E @ change

@@ -68,13 +68,17 @@ FILTER_PARAMETERS = {p.name: p for p in (
                                         "filter ignores)", 0.0, 0.01, 1e-4, "time"),
     Parameter("rho", "Integration", "Structure tensor integration time rho (the size of the neighbourhood "
                                     "whose orientation the strokes follow)", 0.0, 0.05, 5e-4, "time"),
-    Parameter("alpha", "Alpha", "CED: smallest diffusivity, across the flow (0 to 1)", 0.0, 1.0, 1e-3,
-              precision=4, step=0.01),
+    Parameter("alpha", "Alpha", "CED: smallest diffusivity, across the flow. Flow: diffusivity along the "
+                                "direction field (0 to 1)", 0.0, 1.0, 1e-3, precision=4, step=0.01),
     Parameter("b_rel", "Threshold", "CED's coherence threshold B, relative to the largest coherence of "
                                     "the input; smaller values draw strokes in weaker structure",
               0.0, 1.0, 1e-3, precision=7, step=0.0001),
+    Parameter("beta", "Across", "Flow: largest diffusivity across the direction field, beta / (1 + "
+                                "(|grad u_sigma| / lambda)^2)", 0.0, 1.0, 0.05, precision=4, step=0.01),
+    Parameter("contrast", "Contrast", "Flow: how far values are pushed towards black or white over the run "
+                                      "(e-folds of a mid-grey; 0 for none)", 0.0, 100.0, 0.0, precision=2, step=10),
     Parameter("lambda_rel", "Edge Threshold", "Edge sensitivity lambda relative to the input's largest "
-                                              "coherence (EED) or gradient (Perona-Malik, Beltrami)",
+                                              "coherence (EED) or gradient (Perona-Malik, Beltrami, Flow)",
               1e-6, 10.0, 1e-3, precision=5, step=0.01),
 )}
 
@@ -104,13 +108,16 @@ FILTERS = {f.name: f for f in (
            {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}),
     Filter("perona_malik", "Perona-Malik", "Edge-stopping smoothing",
            {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0}),
+    Filter("flow", "Flow (Form)", "Seed 004's flow texture: smooths along a direction field on the surface "
+                                  "(the principal curvature directions), sharpens across it",
+           {"sigma": 1e-5, "alpha": 1.0, "beta": 0.05, "lambda_rel": 0.1, "contrast": 0.0}),
     Filter("gaussian", "Gaussian Blur", "Uniform blur on the surface", {}),
     Filter("beltrami", "Beltrami", "Colour Beltrami flow: smooths regions, sharpens colour edges",
            {"sigma": 0.0, "lambda_rel": 0.1}),
 )}
 
 #: Mode names, in the core's order.
-MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami")
+MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami", "flow")
 
 #: Default filter parameters by mode.
 DEFAULTS = {mode: dict(FILTERS[mode].defaults) for mode in MODES}

@@ -22,6 +22,7 @@ import numpy as np
 
 from .atlas import UnusableUVs, uv_atlas
 from .baking import bake_to_atlas
+from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
@@ -29,7 +30,7 @@ from .noise import inject_noise
 from .sampling import sample_texture
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
-           "stencil_for", "sample_colours", "stylize", "estimate", "estimate_run"]
+           "stencil_for", "stroke_field", "sample_colours", "stylize", "estimate", "estimate_run"]
 
 #: Every object is scaled so that its longest side is this long (the paper's scale).
 NORMAL_LENGTH = 2.0
@@ -54,6 +55,16 @@ def normalisation(vertices, faces):
     if not np.isfinite(longest) or longest <= 0:
         raise ValueError(f"the mesh has no extent (longest side {longest!r})")
     return 0.5 * (lo + hi), NORMAL_LENGTH / longest
+
+
+def stroke_field(band, settings):
+    """The direction field of the ``"flow"`` mode (None for the others): the minimum curvature
+    direction, weighted by its confidence, so that strokes run around the form where it bends
+    one way and the flow falls back to isotropic smoothing at umbilics and on flat parts."""
+    if settings.mode != "flow":
+        return None
+    curvature = principal_curvatures(band)
+    return curvature.e2 * curvature.confidence[:, None]
 
 
 def stencil_for(mode):
@@ -176,7 +187,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                               weights=settings.palette_weights or None, seed=settings.seed)
     lap("bake_in")
     report(0.15)
-    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
+    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme, field=stroke_field(band, settings),
                      progress=lambda f: report(0.15 + 0.8 * f))
     lap("diffusion")
     image = bake_to_atlas(band, result, atlas, margin=settings.margin)

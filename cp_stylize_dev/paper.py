@@ -5,6 +5,9 @@
   parameters (Fig. 4: sigma = 1.2e-4, rho = 3.5e-4, lambda = 1e-3, Perona-Malik
   lambda = 1/13, T = 7e-4), as flattened (phi, theta) maps, with profiles across
   the stripes and PSNR against the clean stripes;
+- ``flow_torus.png``: seed 004's Fig. 1 as flattened maps: smoothed white
+  noise drawn into a flow texture along the maximum (around the tube) and the
+  minimum (around the axis) curvature directions, computed from the band;
 - ``fig5_sphere.png``: a fingerprint-like ridge pattern with noise on the unit
   sphere under coherence-enhancing diffusion with the parameters of eq. (55),
   as equirectangular maps.
@@ -21,7 +24,9 @@ import time
 import numpy as np
 
 from cp_stylize.band import Band
+from cp_stylize.curvature import principal_curvatures
 from cp_stylize.diffusion import diffuse
+from cp_stylize.heat_flow import heat
 from cp_stylize.parameters import DEFAULTS
 from cp_stylize.surfaces import Sphere, Torus
 from cp_stylize.baking import bake_map
@@ -110,11 +115,39 @@ def fig5(out_dir, h=0.0125, log=print, scheme="fast"):
     return path
 
 
+#: Seed 004, Fig. 1: flow textures along both principal curvature directions of the torus.
+FLOW = {"T": 60, "contrast": 2.0, "beta": 0.05}    # T in units of h^2: streaks some ten spacings long
+
+
+def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
+    torus = Torus(1.0, 0.4)
+    start = time.perf_counter()
+    band = Band.build(torus, h, stencil="anisotropic")
+    curvature = principal_curvatures(band)
+    log(f"flow: torus band at h = {h}: {band.size:,} points, principal directions "
+        f"({time.perf_counter() - start:.1f} s)")
+    # seed 004's initial data: white noise, briefly smoothed
+    noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.25 * h * h)
+    maps, captions = [flat_map(band, noise, 200, 500)[..., 0]], ["NOISE"]
+    for which, name in (("max", "MAXIMUM"), ("min", "MINIMUM")):
+        start = time.perf_counter()
+        u = diffuse(band, noise, mode="flow", T=FLOW["T"] * h * h, field=curvature.direction(which),
+                    contrast=FLOW["contrast"], beta=FLOW["beta"], scheme=scheme)
+        log(f"  flow along {which} curvature {time.perf_counter() - start:7.1f} s")
+        maps.append(flat_map(band, u, 200, 500)[..., 0])
+        captions.append(f"ALONG THE {name} CURVATURE")
+    image = figures.grid([figures.panel((m - m.min()) / (m.max() - m.min()), c) for m, c in zip(maps, captions)], 1)
+    path = os.path.join(out_dir, "flow_torus.png")
+    figures.save(path, image)
+    return path
+
+
 def run(out_dir, h=0.0125, log=print, scheme="fast"):
     os.makedirs(out_dir, exist_ok=True)
     log(f"diffusion scheme: {scheme}")
     path4, psnr, n = fig4(out_dir, h, log, scheme)
     path5 = fig5(out_dir, h, log, scheme)
-    for path in (path4, path5):
+    path_flow = fig_flow(out_dir, h, log, scheme)
+    for path in (path4, path5, path_flow):
         log(f"wrote {path}")
-    return path4, path5
+    return path4, path5, path_flow

@@ -133,8 +133,16 @@ def _image(band, dtype=np.float32):
     return band.extend(_image_at(band.cp).astype(dtype))
 
 
+def _parallels(band):
+    """A direction field on a sphere band: the parallels about z, fading to nothing at the poles."""
+    n = band.cp / np.linalg.norm(band.cp, axis=1)[:, None]
+    return np.cross([0.0, 0.0, 1.0], n)
+
+
 def _run(band, u, mode, scheme="fast", **kw):
     kw.setdefault("T", FEW_STEPS)
+    if mode == "flow":
+        kw.setdefault("field", _parallels(band))
     return diffuse(band, u, mode=mode, scheme=scheme, **scaled(H, **{k: v for k, v in DEFAULTS[mode].items()
                                                       if k in ("sigma", "rho")}), **kw)
 
@@ -182,7 +190,7 @@ def test_gaussian_and_perona_malik_stay_within_the_initial_range(small_band, mod
     assert u.min() >= u0.min() - 1e-3 * span and u.max() <= u0.max() + 1e-3 * span
 
 
-@pytest.mark.parametrize("mode", ["perona_malik", "eed", "ced", "beltrami"])
+@pytest.mark.parametrize("mode", ["perona_malik", "eed", "ced", "beltrami", "flow"])
 def test_scale_invariance(mode, scheme):
     # radius 2 at twice the spacing, times four times as long, relative parameters unchanged
     small = Band.build(Sphere(1.0), H, stencil="anisotropic")
@@ -192,9 +200,12 @@ def test_scale_invariance(mode, scheme):
     assert np.mean(same >= 0) > 0.999 and np.all(small.inner[same < 0] == 0)
     u0 = _image(small, np.float64)
     params = scaled(H, **{k: v for k, v in DEFAULTS[mode].items() if k in ("sigma", "rho")})
-    a = diffuse(small, u0, mode=mode, T=FEW_STEPS, scheme=scheme, **params)
+    fields = ({"field": _parallels(small)}, {"field": _parallels(big)}) if mode == "flow" else ({}, {})
+    if mode == "flow":
+        params["contrast"] = 3.0                             # relative to T: the same at both sizes
+    a = diffuse(small, u0, mode=mode, T=FEW_STEPS, scheme=scheme, **params, **fields[0])
     b = diffuse(big, big.extend(_image_at(big.cp / 2)), mode=mode, T=4 * FEW_STEPS, scheme=scheme,
-                **{k: 4 * v for k, v in params.items()})
+                **{k: v if k == "contrast" else 4 * v for k, v in params.items()}, **fields[1])
     assert np.abs(a - u0).max() > 0.03  # the image really changed
     np.testing.assert_allclose(a[same >= 0], b[same[same >= 0]], atol=1e-9)
 
@@ -439,3 +450,96 @@ def test_the_reference_scheme_gives_the_recorded_output():
             assert float(out.sum(dtype=np.float64)) == pytest.approx(expected["sum"], rel=rtol, abs=rtol * out.size)
             assert float(np.sqrt((out.astype(np.float64) ** 2).sum())) == pytest.approx(expected["norm"], rel=rtol)
     print(f"\nexact comparison: {exact}")
+
+
+# -- flow textures along a direction field (seed 004) ------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def torus_noise():
+    from cp_stylize.heat_flow import heat
+
+    h = 0.05
+    torus = Torus(1.0, 0.4)
+    band = Band.build(torus, h, stencil="anisotropic")
+    x, y, _ = band.cp.T
+    parallels = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]
+    meridians = np.cross(torus.normal(band.cp), parallels)
+    # seed 004's initial data: white noise, briefly smoothed
+    noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.5 * h * h)
+    return band, noise, parallels, meridians
+
+
+def _stroke_alignment(band, u, field):
+    """Mean |cos| between the strokes of u (the minor eigenvector of its structure tensor) and a field."""
+    from cp_stylize.stencils import gradient_matrices
+    from cp_stylize.structure import eigen_2x2, reduce_to_tangent, structure_tensor
+    from cp_stylize.tangent import tangent_basis
+
+    h = band.h
+    J = structure_tensor(band, u[None].astype(np.float64), 0.25 * h * h, 4 * h * h,
+                         gradient_matrices(band, np.float64), dt=0.15 * h * h)
+    Q = tangent_basis(band).transpose(2, 1, 0)
+    _, _, c1, s1 = eigen_2x2(*reduce_to_tangent(J, *Q))
+    across = (Q[0] * c1 + Q[1] * s1).T
+    along = np.cross(band.surface.normal(band.cp), across)
+    return float(np.mean(np.abs(np.sum(along * field, axis=1))[band.inner]))
+
+
+@pytest.mark.parametrize("which", ["parallels", "meridians"])
+def test_a_flow_texture_draws_its_strokes_along_the_field(torus_noise, which):
+    band, noise, parallels, meridians = torus_noise
+    field, other = (parallels, meridians) if which == "parallels" else (meridians, parallels)
+    u = diffuse(band, noise, mode="flow", T=20 * band.h**2, field=field, contrast=5.0)
+    along, across = _stroke_alignment(band, u, field), _stroke_alignment(band, u, other)
+    print(f"\nstrokes along the {which}: mean |cos| {along:.3f}; against the other field {across:.3f}")
+    assert along >= 0.95 and across <= 0.3
+    # the noise itself has no direction
+    assert 0.5 < _stroke_alignment(band, noise, field) < 0.75
+
+
+def test_contrast_pushes_the_values_apart_within_their_range(torus_noise):
+    band, noise, parallels, _ = torus_noise
+    T = 20 * band.h**2
+    plain = diffuse(band, noise, mode="flow", T=T, field=parallels)
+    sharp = diffuse(band, noise, mode="flow", T=T, field=parallels, contrast=5.0)
+    assert sharp.std() > 4 * plain.std()
+    assert noise.min() <= sharp.min() and sharp.max() <= noise.max()
+    # a contrast far above the diffusion's stable step is taken in smaller steps and stays bounded: unclamped,
+    # only the interpolation's overshoot at the sharp fronts leaves the range, and the contrast term pulls it back
+    from cp_stylize.heat_flow import heat
+
+    coarse = Band.build(band.surface, 2 * band.h, stencil="anisotropic")
+    noise = heat(coarse, coarse.extend(np.random.default_rng(1).uniform(0, 1, coarse.size)), 0.5 * coarse.h**2)
+    x, y, _ = coarse.cp.T
+    parallels = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]
+    T = 20 * coarse.h**2
+    strong = diffuse(coarse, noise, mode="flow", T=T, field=parallels, contrast=100.0, clamp=False)
+    finer = diffuse(coarse, noise, mode="flow", T=T, field=parallels, contrast=100.0, clamp=False,
+                    tau=0.075 * coarse.h**2)
+    span = noise.max() - noise.min()
+    assert noise.min() - 0.2 * span <= strong.min() and strong.max() <= noise.max() + 0.2 * span
+    assert np.mean(np.abs(strong - finer)) < 0.05 * span      # the time steps resolve the contrast term
+
+
+def test_a_flow_on_a_sphere_falls_back_where_its_curvature_directions_are_undefined():
+    from cp_stylize.curvature import principal_curvatures
+
+    band = Band.build(Sphere(), 0.1, stencil="anisotropic")
+    curvature = principal_curvatures(band)
+    assert curvature.confidence.max() < 0.01
+    u0 = _image(band, np.float64)
+    u = diffuse(band, u0, mode="flow", T=FEW_STEPS, field=curvature.e2 * curvature.confidence[:, None])
+    isotropic = diffuse(band, u0, mode="flow", T=FEW_STEPS, field=np.zeros((band.size, 3)))
+    assert np.abs(u - u0).max() > 0.01                       # it smoothed
+    assert np.abs(u - isotropic).max() < 0.05 * np.abs(isotropic - u0).max()   # as the isotropic fallback does
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(mode="flow"), "mode 'flow' needs field="),
+    (dict(mode="eed", field=np.zeros((3, 3))), "field= is for mode 'flow' only"),
+    (dict(mode="flow", field=np.zeros((3, 3))), "field must be a finite array of shape"),
+])
+def test_the_field_is_checked(small_band, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        diffuse(small_band, np.zeros(small_band.size), T=0.01, **kwargs)

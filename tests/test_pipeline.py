@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cp_stylize import Torus
-from cp_stylize.mesh import parametric_mesh
+from cp_stylize.mesh import TriangleMesh, parametric_mesh
 from cp_stylize.pipeline import ColourInput, estimate_run, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
 
@@ -65,3 +65,23 @@ def test_a_flat_mesh_is_reported():
     settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
     with pytest.raises(ValueError, match="no extent"):
         stylize(np.zeros((3, 3)), np.array([[0, 1, 2]]), ColourInput.constant(1, (1, 1, 1)), settings)
+
+
+def test_the_flow_mode_follows_the_minimum_curvature_of_the_mesh(torus_mesh):
+    from cp_stylize import Band
+    from cp_stylize.pipeline import stroke_field
+
+    vertices, faces, uvs = torus_mesh
+    settings = StylizeSettings(mode="flow", T=2e-3, spacing=0.05, image_size=64)
+    band = Band.build(TriangleMesh(vertices / 14.0, faces), 0.05, stencil="anisotropic")   # longest side 2
+    field = stroke_field(band, settings)
+    x, y, _ = band.cp.T
+    parallels = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]
+    cosines = np.abs(np.sum(field * parallels, axis=1)) / np.linalg.norm(field, axis=1)
+    assert np.percentile(cosines, 5) > 0.99                  # the torus' minimum curvature runs around its axis
+    colours = ColourInput.constant(len(faces), (0.0, 1.0, 0.0))
+    colours.textures.append((_stripes(), uvs, np.ones(len(faces), bool)))
+    plain = stylize(vertices, faces, colours, settings.replace(T=1e-6), uvs=uvs).image
+    result = stylize(vertices, faces, colours, settings, uvs=uvs).image
+    assert np.all(np.isfinite(result)) and np.abs(result - plain).max() > 0.1
+    assert stroke_field(band, settings.replace(mode="ced")) is None

@@ -45,7 +45,7 @@ def test_settings_scale_with_the_object():
     ('mode = "blur"', "mode must be one of"),
     ('mode = "ced"\nT = -1.0', r"T must lie in \[1e-06, 0.1\], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key"),
-    ('mode = "ced"\n[params]\nbeta = 1.0', "unknown parameter"),
+    ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]', "'#rrggbb'"),
     ('mode = = "ced"', "not valid TOML"),
 ])

@@ -6,6 +6,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
+from cp_stylize.parameters import FILTERS  # noqa: E402
+
 pytestmark = pytest.mark.blender
 
 
@@ -43,7 +45,7 @@ class FakeLayout:
         pass
 
 
-@pytest.mark.parametrize("mode", ["ced", "eed", "perona_malik", "gaussian", "beltrami"])
+@pytest.mark.parametrize("mode", list(FILTERS))
 def test_every_panel_draws_for_every_mode(registered, mode):
     from cp_stylize.blender import panel
 
@@ -57,7 +59,8 @@ def test_every_panel_draws_for_every_mode(registered, mode):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
     props = {name.removeprefix(mode + "_") for kind, name in log if kind == "prop"}  # the mode's own parameters
     assert {"mode", "quality", "time"} <= props
-    assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode == "ced")
+    assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode in ("ced", "flow"))
+    assert {p.name for p in FILTERS[mode].parameters} <= props
     assert ("operator", "object.cp_stylize") in log
     # the estimate box shows the spacing, the band size and a time
     labels = [text for kind, text in log if kind == "label"]

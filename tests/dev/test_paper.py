@@ -25,3 +25,8 @@ def test_grid_lays_out_panels_in_rows():
     a, b = np.zeros((10, 20, 3)), np.ones((5, 8, 3))
     out = figures.grid([a, b, a], 2, gap=2)
     assert out.shape == (2 * (10 + 2) + 2, 2 * (20 + 2) + 2, 3)
+
+
+def test_the_flow_figure_draws_both_curvature_directions(tmp_path):
+    path = paper.fig_flow(str(tmp_path), h=0.08, log=lambda *a: None)
+    assert (tmp_path / "flow_torus.png").stat().st_size > 10000 and path.endswith("flow_torus.png")
