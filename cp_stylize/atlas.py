@@ -268,15 +268,29 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
                  texels=texels, face=mesh.face_index[tri], bary=bary)
 
 
+#: The xatlas unwrappers of the last unwrap, destroyed at the start of the next (see :func:`_xatlas_uvs`).
+_RETIRED = []
+
+
 def _xatlas_uvs(mesh, size, *, padding=None):
-    """Per-corner UVs (F, 3, 2) of the input faces from an xatlas unwrap of the kept faces."""
+    """Per-corner UVs (F, 3, 2) of the input faces from an xatlas unwrap of the kept faces.
+
+    An ``xatlas.Atlas`` is not destroyed as soon as it is done: its destructor
+    wakes its worker threads without their lock and joins them, and a worker
+    that is between its wake-up check and its wait right then sleeps for ever,
+    and the join with it (a lost wake-up; the workers settle microseconds after
+    ``generate`` returns).  So each unwrapper is kept until the next unwrap
+    starts, or the interpreter exits, when its workers have long been asleep.
+    """
     import xatlas
 
+    del _RETIRED[:]
     if padding is None:
         padding = max(2, size // 256)
     padding = count(padding, "padding", minimum=0, unit=" number of texels")
     faces = mesh.faces
     atlas = xatlas.Atlas()
+    _RETIRED.append(atlas)
     atlas.add_mesh(mesh.vertices.astype(np.float32), faces.astype(np.uint32))
     pack = xatlas.PackOptions()
     pack.resolution = size
@@ -286,6 +300,7 @@ def _xatlas_uvs(mesh, size, *, padding=None):
     if atlas.atlas_count != 1:
         pack.resolution = 0
         atlas = xatlas.Atlas()
+        _RETIRED.append(atlas)
         atlas.add_mesh(mesh.vertices.astype(np.float32), faces.astype(np.uint32))
         atlas.generate(xatlas.ChartOptions(), pack)
     vmapping, indices, uv = atlas[0]

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from cp_stylize import atlas as atlas_module
 from cp_stylize.atlas import Atlas, uv_atlas, uv_problems
 
 
@@ -41,6 +42,17 @@ def test_a_new_atlas_can_be_forced(uv_sphere):
     atlas = uv_atlas(mesh, 128, uvs, force_new=True)
     assert atlas.generated and atlas.uvs.shape == uvs.shape
     assert not np.allclose(atlas.uvs, uvs)
+
+
+def test_an_unwrapper_outlives_its_unwrap_until_the_next(uv_sphere):
+    # xatlas's destructor can lose the wake-up of a worker thread that has not settled yet and
+    # then wait for it for ever: an unwrapper is destroyed only when the next unwrap starts
+    mesh, uvs, _ = uv_sphere
+    uv_atlas(mesh, 64, uvs, force_new=True)
+    first = list(atlas_module._RETIRED)
+    assert first and all(type(a).__module__ == "xatlas" for a in first)
+    uv_atlas(mesh, 64, uvs, force_new=True)
+    assert atlas_module._RETIRED and not any(a is b for a in atlas_module._RETIRED for b in first)
 
 
 @pytest.mark.parametrize("call, error, message", [
