@@ -42,7 +42,7 @@ SCHEMES = ("reference", "fast")
 
 #: Grid spacing, steps and atlas size of each case, full and quick.
 SIZES = {
-    "torus": {"full": {"h": 0.0125, "steps": 30}, "quick": {"h": 0.05, "steps": 30}},
+    "torus": {"full": {"h": 0.0125, "steps": 30}, "quick": {"h": 0.05, "steps": 10}},
     "suzanne": {"full": {"h": 0.008, "size": 1024}, "quick": {"h": 0.04, "size": 256}},
 }
 

@@ -377,7 +377,7 @@ def _surface_psnr(band, a, b, n=20000):
 @pytest.mark.slow
 @pytest.mark.parametrize("mode, surface", [("eed", Torus(1.0, 0.4)), ("ced", Sphere())])
 def test_fast_scheme_matches_the_reference(mode, surface):
-    h = 0.05
+    h = 0.08
     band = Band.build(surface, h, stencil="anisotropic")
     rng = np.random.default_rng(7)
     x, y, z = band.cp.T

@@ -6,7 +6,7 @@ import pytest
 from cp_stylize import Band, Sphere, heat
 from cp_stylize.heat_flow import time_steps
 
-T = 0.05
+T = 0.02
 SPACINGS = (0.1, 0.05, 0.025)
 
 

@@ -23,8 +23,9 @@ pytestmark = pytest.mark.blender
 
 @pytest.fixture
 def addon(addon):
-    """The add-on at preview quality with a filter that barely changes the colours, so they can be checked."""
+    """The add-on on a coarse grid with a filter that barely changes the colours, so they can be checked."""
     addon.mode, addon.time = "gaussian", 1e-6
+    addon.quality, addon.spacing = "CUSTOM", 0.04
     return addon
 
 
@@ -114,7 +115,8 @@ def test_a_second_blend_in_the_same_folder_keeps_its_image(addon, tmp_path):
     first = files(tmp_path)["Ball_stylized.png"]
     # another file in the same folder, with an object of the same name
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.context.scene.cp_stylize.quality, bpy.context.scene.cp_stylize.image_size = "PREVIEW", "512"
+    bpy.context.scene.cp_stylize.quality, bpy.context.scene.cp_stylize.image_size = "CUSTOM", "512"
+    bpy.context.scene.cp_stylize.spacing = 0.04
     bpy.context.scene.cp_stylize.mode, bpy.context.scene.cp_stylize.time = "gaussian", 1e-6
     bpy.context.scene.cp_stylize.storage = "SAVE"
     sphere(material=image_material("Painted", halves("source", GREEN, RED)))
@@ -536,7 +538,7 @@ def test_a_loose_vertex_far_away_does_not_change_the_grid(addon):
     obj.data.vertices[-1].co = (50.0, 0.0, 0.0)
     obj.data.update()
     h_loose, n_loose, _, _ = estimate(obj, addon.to_settings())
-    assert h == pytest.approx(0.016) and h_loose == pytest.approx(h) and n_loose == n
+    assert h == pytest.approx(0.04) and h_loose == pytest.approx(h) and n_loose == n
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
     points, colours = texel_points(obj, stylized_image(obj))
     assert near(colours, RED).mean() > 0.4 and near(colours, BLUE).mean() > 0.4
@@ -732,6 +734,6 @@ def test_the_memory_limit_stops_at_the_computers_memory(addon, monkeypatch):
 
 def test_quality_applies_without_a_preset(addon, capfd):
     sphere(material=image_material("Painted", halves("source")))
-    assert addon.quality == "PREVIEW"
-    assert bpy.ops.object.cp_stylize(quality="STANDARD") == {"FINISHED"}
-    assert "grid spacing 0.008" in capfd.readouterr().out
+    assert addon.quality == "CUSTOM" and addon.spacing == pytest.approx(0.04)
+    assert bpy.ops.object.cp_stylize(quality="PREVIEW") == {"FINISHED"}
+    assert "grid spacing 0.016" in capfd.readouterr().out
