@@ -1,12 +1,13 @@
 """Surface-intrinsic diffusion filters with the closest point method (paper, sections 2-4).
 
-:func:`diffuse` runs one of five filters on band values:
+:func:`diffuse` runs one of six filters on band values:
 
 - ``"gaussian"``: the surface heat equation (linear blur);
 - ``"perona_malik"``: ``u_t = div_S(g(|grad_S u|^2) grad_S u)``;
 - ``"eed"``: Weickert's edge-enhancing diffusion (eqs. (7)-(8));
 - ``"ced"``: Weickert's coherence-enhancing diffusion (eq. (9));
-- ``"beltrami"``: the colour Beltrami flow in the decoupled form of seed 001, eq. (90).
+- ``"beltrami"``: the colour Beltrami flow in the decoupled form of seed 001, eq. (90);
+- ``"flow"``: seed 004's flow texture along a direction field, with its contrast term.
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .heat_flow import heat_rows, time_steps
+from .heat_flow import heat, heat_rows, time_steps
 from .parameters import DEFAULTS, FILTER_PARAMETERS, MODES
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
@@ -59,7 +60,7 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         Grey or colour values at the band points, as a closest point extension
         (e.g. a texture sampled at ``band.cp``).  float64 stays float64;
         anything else is computed in float32.
-    mode : {"gaussian", "perona_malik", "eed", "ced", "beltrami"}
+    mode : {"gaussian", "perona_malik", "eed", "ced", "beltrami", "flow"}
         The filter.
     T : float
         Stop time, in squared surface units.
@@ -86,12 +87,16 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         by default the surface's own (analytic for Sphere and Torus), else the
         Jacobian of the closest point function (eqs. (32)-(33)).
     field : ndarray (N, 3), optional
-        ``"flow"`` only, and needed there: the direction field the strokes
-        follow at the band's closest points (a line field: ``e`` and ``-e``
-        are the same), such as ``principal_curvatures(band).e2``.  Its
-        tangential part is used; its length, clipped to [0, 1], is the
-        confidence in it: where it is 0 the diffusion falls back to
-        Perona-Malik's isotropic ``g``.
+        The direction field the strokes follow at the band's closest points
+        (a line field: ``e`` and ``-e`` are the same), such as
+        ``principal_curvatures(band).e2``.  Its tangential part is used; its
+        length, clipped to [0, 1], is the confidence ``w`` in it.  Needed by
+        ``"flow"``: where ``w`` is 0 it falls back to Perona-Malik's isotropic
+        ``g``.  Optional for ``"ced"``: the strokes' orientation blends from
+        the texture's (the structure tensor's, where ``w`` is 0) to the
+        field's (where it is 1), by the doubled angles of the two line fields
+        weighted ``1 - w`` and ``w``; the diffusivities stay those of the
+        texture's coherence.
     progress : callable, optional
         ``progress(fraction)`` as the run advances; an exception it raises
         stops the run and propagates (the input is never modified).
@@ -118,6 +123,12 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         their initial range), at the rate ``4 contrast / T``: a mid-grey
         moves ``contrast`` e-folds towards black or white over the run,
         whatever the size of the object.
+    ink : float, optional
+        Flow: 0 (the default) diffuses ``u0``.  Above 0 the flow runs on
+        seed 004's initial data instead, white noise (seed :data:`INK_SEED`)
+        smoothed over ``h^2 / 4``, and the darker half of that flow texture
+        ``s`` (scaled to [0, 1]) darkens ``u0`` as strokes:
+        ``u0 (1 - ink max(1 - 2 s, 0))``; ``u0`` keeps its tones.
 
     Returns
     -------
@@ -194,14 +205,17 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
     u0 = band.check_values(u0)
     if not np.all(np.isfinite(u0)):
         raise ValueError("u0 holds NaN or infinite values")
-    if (mode == "flow") != (field is not None):
-        raise ValueError("mode 'flow' needs field=, an (N, 3) direction field such as "
-                         "principal_curvatures(band).e2" if mode == "flow" else
-                         f"field= is for mode 'flow' only, not {mode!r}")
+    if mode == "flow" and field is None:
+        raise ValueError("mode 'flow' needs field=, an (N, 3) direction field such as principal_curvatures(band).e2")
+    if field is not None and mode not in ("ced", "flow"):
+        raise ValueError(f"field= is for the modes 'ced' and 'flow' only, not {mode!r}")
     if field is not None:
         field = np.asarray(field, dtype=np.float64)
         if field.shape != (band.size, 3) or not np.all(np.isfinite(field)):
             raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {field.shape}")
+    if mode == "flow" and params["ink"] > 0:
+        return _inked(band, u0, T=T, tau=tau, scheme=scheme, lag=lag, clamp=clamp, normals=normals, field=field,
+                      progress=progress, **params)
     tau = PAPER_CFL * band.h**2 if tau is None else float(tau)
     n_steps, tau = time_steps(T, tau)
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
@@ -211,7 +225,9 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
     smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
     flow = _Flow(band, rows.dtype, mode, params, normals, smoothing, field)
     flow.normalise(rows)
-    reaction = flow.reaction(lo, hi, 4.0 * params["contrast"] / T) if mode == "flow" and params["contrast"] > 0 else None
+    reaction = None
+    if mode == "flow" and params["contrast"] > 0:
+        reaction = flow.reaction(lo, hi, 4.0 * params["contrast"] / T)
     lag = 0.0 if scheme == "reference" else lag
     inner = band.inner
     span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
@@ -351,6 +367,7 @@ class _Flow:
         parts = smoothing_parts[:1] + [self._build_divergence] + smoothing_parts[1:]
         map_parallel(lambda build: build(), parts + [self._build_tangents] * (mode in ("eed", "ced"))
                      + [self._build_field] * (mode == "flow"))
+        self.orientation = None if mode != "ced" or field is None else self._field_orientation()
 
     def _build_divergence(self):
         self.divergence = DivergenceOperator(self.band, self.dtype)
@@ -360,6 +377,32 @@ class _Flow:
     def _build_tangents(self):
         Q = tangent_basis(self.band, self.normals)
         self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
+
+    def _field_orientation(self):
+        """The field's across-stroke line field in the tangent basis Q, as a doubled angle weighted by its
+        confidence ``w``, and ``1 - w``: ``(w cos 2phi, w sin 2phi, 1 - w)``."""
+        q0, q1 = self.Q
+        fc, fs = np.sum(q0 * self.field.T, axis=0), np.sum(q1 * self.field.T, axis=0)
+        length2 = fc * fc + fs * fs
+        w = np.clip(np.sqrt(length2), 0.0, 1.0)
+        scale = np.where(length2 > 0, w / np.where(length2 > 0, length2, 1.0), 0.0)
+        # across the strokes: (-fs, fc); its doubled angle (fs^2 - fc^2, -2 fs fc) / length^2
+        return tuple(a.astype(self.work) for a in (scale * (fs * fs - fc * fc), scale * (-2.0 * fs * fc), 1.0 - w))
+
+    def _orient(self, c1, s1):
+        """CED's across-stroke direction ``(c1, s1)`` blended with the field's (see :func:`diffuse`)."""
+        if self.orientation is None:
+            return c1, s1
+        cos2, sin2, keep = self.orientation
+        C = keep * (c1 * c1 - s1 * s1) + cos2
+        S = keep * (2.0 * c1 * s1) + sin2
+        r = np.sqrt(C * C + S * S)
+        ok = r > 1e-6
+        r = np.where(ok, r, 1.0)
+        c = np.sqrt(np.clip(0.5 * (1.0 + C / r), 0.0, 1.0))
+        s = np.copysign(np.sqrt(np.clip(0.5 * (1.0 - C / r), 0.0, 1.0)), S)
+        own = ~ok | (keep >= 1)          # no field there: the texture's own, to the bit
+        return np.where(own, c1, c), np.where(own, s1, s)
 
     def _build_field(self):
         """The field's unit tangent direction e (3, N), its confidence (N,) and the tangent projector (6, N)."""
@@ -419,6 +462,7 @@ class _Flow:
             else:
                 c, c1, s1 = self._coherence(rows, progress)
             k1, k2 = _diffusivities(self.mode, c, p, self.scale)
+            c1, s1 = self._orient(c1, s1)
             q0, q1 = self.Q
             w = q0 * c1 + q1 * s1
             G = np.empty((6, self.band.size), dtype=self.work)
@@ -464,6 +508,22 @@ class _Flow:
             np.multiply(g, self.projector[k], out=G[k])
             G[k] += along * e[a] * e[b]
         return G
+
+
+#: Seed of the white noise the ``ink`` of the flow mode draws its strokes from.
+INK_SEED = 4
+
+
+def _inked(band, u0, *, ink, **kw):
+    """Flow with ``ink``: seed 004's flow texture of white noise (briefly smoothed, over ``h^2 / 4``),
+    laid over ``u0`` as dark strokes: ``u0 (1 - ink max(1 - 2 s, 0))`` with ``s`` the texture scaled to
+    [0, 1], so that only its darker half draws."""
+    noise = band.extend(np.random.default_rng(INK_SEED).uniform(0.0, 1.0, band.size).astype(u0.dtype))
+    noise = heat(band, noise, 0.25 * band.h**2)
+    s = diffuse(band, noise, mode="flow", ink=0.0, **kw)
+    s = (s - s.min()) / max(float(s.max() - s.min()), _TINY)
+    shade = (1.0 - ink * np.clip(1.0 - 2.0 * s, 0.0, 1.0)).astype(u0.dtype)   # its darker half: lines
+    return u0 * (shade[:, None] if u0.ndim == 2 else shade)
 
 
 def _step(rows, A, extra, laplacian, E, tau, stable_step, bounds, reaction=None):

@@ -18,7 +18,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
-__all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "check_value"]
+__all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
+           "DIRECTED_MODES", "check_value"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +78,9 @@ FILTER_PARAMETERS = {p.name: p for p in (
                                 "(|grad u_sigma| / lambda)^2)", 0.0, 1.0, 0.05, precision=4, step=0.01),
     Parameter("contrast", "Contrast", "Flow: how far values are pushed towards black or white over the run "
                                       "(e-folds of a mid-grey; 0 for none)", 0.0, 100.0, 0.0, precision=2, step=10),
+    Parameter("ink", "Ink", "Flow: draw the flow texture of seed 004's noise as dark strokes over the texture, "
+                            "which keeps its tones, this strong (0: the flow smooths the texture itself)",
+              0.0, 1.0, 0.0, precision=2, step=10),
     Parameter("lambda_rel", "Edge Threshold", "Edge sensitivity lambda relative to the input's largest "
                                               "coherence (EED) or gradient (Perona-Malik, Beltrami, Flow)",
               1e-6, 10.0, 1e-3, precision=5, step=0.01),
@@ -110,11 +114,26 @@ FILTERS = {f.name: f for f in (
            {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0}),
     Filter("flow", "Flow (Form)", "Seed 004's flow texture: smooths along a direction field on the surface "
                                   "(the principal curvature directions), sharpens across it",
-           {"sigma": 1e-5, "alpha": 1.0, "beta": 0.05, "lambda_rel": 0.1, "contrast": 0.0}),
+           {"sigma": 1e-5, "alpha": 1.0, "beta": 0.05, "lambda_rel": 0.1, "contrast": 0.0, "ink": 0.0}),
     Filter("gaussian", "Gaussian Blur", "Uniform blur on the surface", {}),
     Filter("beltrami", "Beltrami", "Colour Beltrami flow: smooths regions, sharpens colour edges",
            {"sigma": 0.0, "lambda_rel": 0.1}),
 )}
+
+#: Where the strokes of CED and Flow take their direction from: name -> (label, description), in the
+#: order the panel lists them.  CED follows the texture by default; Flow needs a field.
+DIRECTIONS = {
+    "texture": ("Texture", "The texture's own structure (CED's structure tensor); not for Flow"),
+    "max": ("Max Curvature", "Across the form: the direction of the larger principal curvature"),
+    "min": ("Min Curvature", "Along the form: the direction of the smaller principal curvature, around "
+                             "a column, along a limb"),
+    "axis": ("Axis", "A direction in the object's space, projected onto the surface (falls back to the "
+                     "texture where the surface faces it)"),
+    "attribute": ("Attribute", "A vector attribute of the mesh (per point, corner or face)"),
+}
+
+#: The modes whose strokes can follow a direction (:data:`DIRECTIONS`).
+DIRECTED_MODES = ("ced", "flow")
 
 #: Mode names, in the core's order.
 MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami", "flow")

@@ -27,13 +27,19 @@ from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
 from .noise import inject_noise
+from .parameters import DIRECTED_MODES
 from .sampling import sample_texture
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
-           "stencil_for", "stroke_field", "sample_colours", "stylize", "estimate", "estimate_run"]
+           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "stylize", "estimate",
+           "estimate_run"]
 
 #: Every object is scaled so that its longest side is this long (the paper's scale).
 NORMAL_LENGTH = 2.0
+
+#: Heat flow time, in h^2, that evens out the shape operator of a mesh before its principal
+#: directions are taken (the interpolated normals bend face by face).
+CURVATURE_SMOOTHING = 4.0
 
 
 def normalisation(vertices, faces):
@@ -57,14 +63,56 @@ def normalisation(vertices, faces):
     return 0.5 * (lo + hi), NORMAL_LENGTH / longest
 
 
-def stroke_field(band, settings):
-    """The direction field of the ``"flow"`` mode (None for the others): the minimum curvature
-    direction, weighted by its confidence, so that strokes run around the form where it bends
-    one way and the flow falls back to isotropic smoothing at umbilics and on flat parts."""
-    if settings.mode != "flow":
+def stroke_field(band, settings, directions=None):
+    """The direction field the strokes follow, for :func:`cp_stylize.diffuse`'s ``field=``.
+
+    From ``settings.stroke_direction`` (:data:`cp_stylize.parameters.DIRECTIONS`):
+    None for ``"texture"`` (CED's own structure tensor) and for the modes that
+    take no direction; else an (N, 3) line field whose length is the
+    confidence in it, which the diffusion blends by:
+
+    - ``"max"``, ``"min"``: a principal curvature direction times its
+      confidence (0 at umbilics, on spheres and flat parts);
+    - ``"axis"``: ``settings.axis`` (normalised); the diffusion keeps its
+      tangential part, whose length falls to 0 where the surface faces it;
+    - ``"attribute"``: ``directions``, per-corner vectors (F, 3, 3) of the
+      mesh, each normalised and mixed across its face with the signs of the
+      face's first corner (see :func:`sample_directions`).
+    """
+    source = settings.stroke_direction
+    if source == "texture" or settings.mode not in DIRECTED_MODES:
         return None
-    curvature = principal_curvatures(band)
-    return curvature.e2 * curvature.confidence[:, None]
+    if source in ("max", "min"):
+        curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
+        return curvature.direction(source) * curvature.confidence[:, None]
+    if source == "axis":
+        axis = np.asarray(settings.axis, dtype=np.float64)
+        return np.broadcast_to(axis / np.linalg.norm(axis), (band.size, 3)).copy()
+    if directions is None:
+        raise ValueError("direction 'attribute' needs the mesh's vectors: pass directions= (F, 3, 3)")
+    return sample_directions(band, directions)
+
+
+def sample_directions(band, corners):
+    """A line field (N, 3) at the band's closest points from per-corner vectors (F, 3, 3).
+
+    Each corner's vector is normalised (zero stays zero) and flipped to agree
+    with the face's first corner, so that ``v`` and ``-v`` give the same
+    field; the barycentric mix's length, at most 1, says how well the
+    corners agree.
+    """
+    if band.face is None:
+        raise ValueError("the band was not built on a triangle mesh: it has no faces to read directions from")
+    corners = np.asarray(corners, dtype=np.float64)
+    if corners.ndim != 3 or corners.shape[1:] != (3, 3) or corners.shape[0] <= int(band.face.max()):
+        raise ValueError(f"directions must have shape (F, 3, 3) for the mesh's faces, got {corners.shape}")
+    if not np.all(np.isfinite(corners)):
+        raise ValueError("directions hold NaN or infinite values")
+    length = np.linalg.norm(corners, axis=2, keepdims=True)
+    unit = np.divide(corners, length, out=np.zeros_like(corners), where=length > 0)
+    sign = np.where(np.sum(unit * unit[:, :1], axis=2) < 0, -1.0, 1.0)
+    unit *= sign[:, :, None]
+    return np.einsum("nk,nkc->nc", band.bary, unit[band.face])
 
 
 def stencil_for(mode):
@@ -133,7 +181,7 @@ def sample_colours(band, colours, channels=3):
 
 
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
-            progress=None, log=None):
+            directions=None, progress=None, log=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
 
     Parameters
@@ -153,6 +201,9 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         make a new atlas when ``uvs`` are missing or unusable.
     scheme : {"fast", "reference"}
         The diffusion's time stepping (see :func:`cp_stylize.diffuse`).
+    directions : ndarray (F, 3, 3), optional
+        Per-corner vectors the strokes follow when ``settings.stroke_direction``
+        is ``"attribute"`` (see :func:`stroke_field`), in the mesh's space.
     progress : callable, optional
         ``progress(fraction)``; an exception it raises stops the run.
     log : callable, optional
@@ -170,6 +221,10 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
     centre, scale = normalisation(vertices, faces)
+    if settings.stroke_direction == "attribute" and settings.mode in DIRECTED_MODES \
+            and np.shape(directions) != (len(faces), 3, 3):
+        raise ValueError(f"direction 'attribute' needs the mesh's vectors, directions= of shape ({len(faces)}, 3, 3), "
+                         f"got {'none' if directions is None else np.shape(directions)}")
     mesh = TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale, faces)
     if mesh.skipped_faces:
         say(f"skipped {mesh.skipped_faces} degenerate face(s)")
@@ -187,7 +242,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                               weights=settings.palette_weights or None, seed=settings.seed)
     lap("bake_in")
     report(0.15)
-    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme, field=stroke_field(band, settings),
+    field = stroke_field(band, settings, directions)
+    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme, field=field,
                      progress=lambda f: report(0.15 + 0.8 * f))
     lap("diffusion")
     image = bake_to_atlas(band, result, atlas, margin=settings.margin)

@@ -13,6 +13,9 @@ the extension)::
     mode = "ced"          # one of cp_stylize.MODES
     T = 1.1e-4            # stop time (object 2 units long)
     spacing = 0.008       # grid spacing (object 2 units long)
+    direction = "min"     # optional, CED and Flow: what the strokes follow (cp_stylize.parameters.DIRECTIONS)
+    axis = [0, 0, 1]      # direction "axis": the axis, in the object's space
+    attribute = "flow"    # direction "attribute": the mesh's vector attribute (the add-on reads it)
 
     [params]              # sigma, rho, alpha, b_rel, lambda_rel (see diffuse)
     sigma = 1e-4
@@ -26,11 +29,12 @@ the extension)::
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import tomllib
 from collections.abc import Mapping
 
-from .parameters import FILTER_PARAMETERS, MODES, RUN, check_value
+from .parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, RUN, check_value
 
 __all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex"]
 
@@ -82,6 +86,9 @@ class StylizeSettings:
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()
     seed: int = 0
+    direction: str | None = None    # CED and Flow: see DIRECTIONS; None: the mode's own (stroke_direction)
+    axis: tuple = (0.0, 0.0, 1.0)   # direction "axis", in the object's space
+    attribute: str = ""             # direction "attribute": the mesh's vector attribute, for the add-on
     image_size: int = 1024
     margin: int = 16
     name: str = ""
@@ -104,6 +111,33 @@ class StylizeSettings:
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
         check_value("image size", self.image_size, *IMAGE_SIZES)
+        self._check_direction()
+
+    def _check_direction(self):
+        if self.direction is not None and self.direction not in DIRECTIONS:
+            raise ValueError(f"direction must be one of {list(DIRECTIONS)}, got {self.direction!r}")
+        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES:
+            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)}, "
+                             f"not {self.mode!r}")
+        if self.mode == "flow" and self.direction == "texture":
+            raise ValueError("mode 'flow' draws along a direction field: direction must be one of "
+                             f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")
+        try:
+            axis = tuple(float(a) for a in self.axis)
+        except (TypeError, ValueError):
+            axis = ()
+        if len(axis) != 3 or not all(math.isfinite(a) for a in axis) or not any(axis):
+            raise ValueError(f"axis must be three finite numbers, not all zero, got {self.axis!r}")
+        object.__setattr__(self, "axis", axis)
+        if not isinstance(self.attribute, str):
+            raise ValueError(f"attribute must be an attribute's name, got {self.attribute!r}")
+
+    @property
+    def stroke_direction(self):
+        """What the strokes follow: ``direction``, or the mode's own ("min" for Flow, else "texture")."""
+        if self.direction is not None:
+            return self.direction
+        return "min" if self.mode == "flow" else "texture"
 
     def __getattr__(self, name):
         """A filter parameter by name (``settings.sigma``): its value, or None if it is not set."""
@@ -149,7 +183,8 @@ def _hex(rgb):
 
 def settings_from_dict(data, *, source="preset"):
     """:class:`StylizeSettings` from a parsed preset table."""
-    known = {"name", "description", "mode", "T", "spacing", "params", "noise", "output"}
+    known = {"name", "description", "mode", "T", "spacing", "direction", "axis", "attribute", "params", "noise",
+             "output"}
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}")
@@ -170,6 +205,8 @@ def settings_from_dict(data, *, source="preset"):
             noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
             palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
             image_size=int(output.get("size", 1024)), margin=int(output.get("margin", 16)),
+            direction=data.get("direction"), axis=tuple(data.get("axis", (0.0, 0.0, 1.0))),
+            attribute=data.get("attribute", ""),
             name=data.get("name", ""), description=data.get("description", ""), params=params)
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from None
@@ -207,7 +244,14 @@ def save_preset(settings, path):
     """Write ``settings`` as a preset TOML file that :func:`load_preset` reads back."""
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
              f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
-             f"spacing = {_toml_value(float(settings.spacing))}", "", "[params]"]
+             f"spacing = {_toml_value(float(settings.spacing))}"]
+    if settings.direction is not None:
+        lines.append(f"direction = {_toml_value(settings.direction)}")
+    if settings.axis != (0.0, 0.0, 1.0):
+        lines.append(f"axis = [{', '.join(_toml_value(a) for a in settings.axis)}]")
+    if settings.attribute:
+        lines.append(f"attribute = {_toml_value(settings.attribute)}")
+    lines += ["", "[params]"]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in settings.params.items()]
     if settings.noise_fraction > 0:
         lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",

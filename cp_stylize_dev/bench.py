@@ -151,7 +151,9 @@ def worker(case, scheme, quick, data, out):
 # -- the driver ---------------------------------------------------------------------------
 
 
-def _suzanne_arrays(folder, log):
+def suzanne_arrays(folder, log):
+    """The demo's Suzanne as ``folder/suzanne.npz`` (see :func:`cp_stylize_dev.demo.save_mesh_arrays`),
+    made in a process of its own; None, logged, where Blender's Python module cannot make it."""
     path = os.path.join(folder, "suzanne.npz")
     code = f"from cp_stylize_dev.demo import save_mesh_arrays; save_mesh_arrays({path!r})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=_root())
@@ -207,7 +209,7 @@ def run(quick=False, json_path=None, cases=("torus", "suzanne"), log=print):
     report = {"cores": workers(), "quick": bool(quick), "runs": [], "cases": {}}
     log(f"cp_stylize bench{' --quick' if quick else ''}: {workers()} core(s)")
     with tempfile.TemporaryDirectory() as folder:
-        data = _suzanne_arrays(folder, log) if "suzanne" in cases else None
+        data = suzanne_arrays(folder, log) if "suzanne" in cases else None
         for case in cases:
             if case == "suzanne" and data is None:
                 continue

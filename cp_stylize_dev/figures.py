@@ -104,3 +104,77 @@ def save(path, image):
 def _pad_width(img, width):
     extra = width - img.shape[1]
     return np.pad(img, ((0, 0), (0, extra), (0, 0))) if extra > 0 else img
+
+
+def surface_view(band, values, *, size=(300, 400), elevation=35.0, azimuth=30.0, extent=1.1, steps=200):
+    """A 3-D view (H, W) or (H, W, C) of band ``values`` (N,) or (N, C) on the band's surface, lit from
+    the viewer's upper left.
+
+    Orthographic rays from the direction given by ``elevation`` and
+    ``azimuth`` (degrees) march to the surface with the closest point
+    distance (sphere tracing), which every closest point surface has; the
+    values are interpolated at the hits and shaded by the surface normal.
+    ``extent`` is the half-width of the view (the band's surface should fit
+    in it); pixels the rays miss are 0.
+    """
+    h, w = size
+    e, a = np.radians(elevation), np.radians(azimuth)
+    forward = -np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    ys, xs = np.meshgrid(np.linspace(extent * h / w, -extent * h / w, h), np.linspace(-extent, extent, w),
+                         indexing="ij")
+    origins = (xs.ravel()[:, None] * right + ys.ravel()[:, None] * up) - 3.0 * extent * forward
+    # march only inside the surface's box: the distances far from a mesh are the costly ones
+    lo, hi = band.cp.min(axis=0) - band.h, band.cp.max(axis=0) + band.h
+    inside = (origins >= lo) & (origins <= hi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (lo - origins) / forward, (hi - origins) / forward
+    moving = forward != 0
+    enter = np.where(moving, np.minimum(a, b), np.where(inside, -np.inf, np.inf))
+    leave = np.where(moving, np.maximum(a, b), np.where(inside, np.inf, -np.inf))
+    t = np.maximum(enter.max(axis=1), 0.0)
+    exit_at = leave.min(axis=1)
+    live = t < exit_at
+    hit = np.zeros(len(origins), dtype=bool)
+    surface = band.surface
+    tolerance = 1e-3 * band.h
+    for _ in range(steps):
+        if not live.any():
+            break
+        index = np.flatnonzero(live)
+        p = origins[index] + t[index, None] * forward
+        cp = surface.closest_point(p)[0]
+        d = np.linalg.norm(p - cp, axis=1)
+        near = d < tolerance
+        hit[index[near]] = True
+        live[index[near]] = False
+        t[index] += np.where(near, 0.0, d)
+        live[index[t[index] > exit_at[index]]] = False
+    values = np.asarray(values, dtype=np.float64)
+    image = np.zeros((len(origins),) + values.shape[1:])
+    if hit.any():
+        points = surface.closest_point(origins[hit] + t[hit, None] * forward)[0]
+        shade = _lambert(band, points, forward, right, up)
+        image[hit] = band.interpolate(values, points) * shade.reshape((-1,) + (1,) * (values.ndim - 1))
+    return image.reshape((h, w) + values.shape[1:])
+
+
+def _lambert(band, points, forward, right, up):
+    """Diffuse shading in [0.35, 1] of surface points, lit from the viewer's upper left."""
+    light = -forward + 0.6 * up - 0.4 * right
+    light /= np.linalg.norm(light)
+    normal = getattr(band.surface, "normal", None)
+    if normal is not None:
+        n = normal(points)
+    else:  # a mesh: the normal is the gradient of the distance, from nearby off-surface points
+        n = _mesh_normals(band.surface, points, -forward, 0.25 * band.h)
+    return 0.35 + 0.65 * np.abs(n @ light)
+
+
+def _mesh_normals(surface, points, towards, step):
+    off = points + step * towards
+    cp = surface.closest_point(off)[0]
+    n = off - cp
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)

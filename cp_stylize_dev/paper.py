@@ -19,6 +19,7 @@ parameters (coarser grids take fewer, longer steps).
 from __future__ import annotations
 
 import os
+import tempfile
 import time
 
 import numpy as np
@@ -32,6 +33,7 @@ from cp_stylize.surfaces import Sphere, Torus
 from cp_stylize.baking import bake_map
 
 from . import figures
+from .bench import suzanne_arrays
 
 #: The modes' defaults are the paper's (cp_stylize/parameters.py): Fig. 4's for
 #: Gaussian, Perona-Malik and EED, eq. (55)'s for CED.
@@ -128,17 +130,51 @@ def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
         f"({time.perf_counter() - start:.1f} s)")
     # seed 004's initial data: white noise, briefly smoothed
     noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.25 * h * h)
-    maps, captions = [flat_map(band, noise, 200, 500)[..., 0]], ["NOISE"]
+    values, captions = [noise], ["NOISE"]
     for which, name in (("max", "MAXIMUM"), ("min", "MINIMUM")):
         start = time.perf_counter()
-        u = diffuse(band, noise, mode="flow", T=FLOW["T"] * h * h, field=curvature.direction(which),
-                    contrast=FLOW["contrast"], beta=FLOW["beta"], scheme=scheme)
+        values.append(diffuse(band, noise, mode="flow", T=FLOW["T"] * h * h, field=curvature.direction(which),
+                              contrast=FLOW["contrast"], beta=FLOW["beta"], scheme=scheme))
         log(f"  flow along {which} curvature {time.perf_counter() - start:7.1f} s")
-        maps.append(flat_map(band, u, 200, 500)[..., 0])
         captions.append(f"ALONG THE {name} CURVATURE")
-    image = figures.grid([figures.panel((m - m.min()) / (m.max() - m.min()), c) for m, c in zip(maps, captions)], 1)
+    values = [(v - v.min()) / (v.max() - v.min()) for v in values]
+    # seed 004's Fig. 1: the torus seen from above, and its parameter domain (angle around the axis across)
+    views = [figures.surface_view(band, v, size=(330, 500), extent=1.5) for v in values]
+    maps = [flat_map(band, v, 200, 500)[..., 0] for v in values]
+    image = figures.grid([figures.panel(m, c) for m, c in zip(views, captions)]
+                         + [figures.panel(m, c + ", FLAT") for m, c in zip(maps, captions)], 3)
     path = os.path.join(out_dir, "flow_torus.png")
     figures.save(path, image)
+    return path
+
+
+def fig_flow_mesh(out_dir, vertices, faces, h=0.008, log=print, scheme="fast", name="suzanne", size=440):
+    """The flow texture along both principal directions of a triangle mesh (normalised to length 2)."""
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.pipeline import CURVATURE_SMOOTHING, normalisation
+
+    centre, scale = normalisation(vertices, faces)
+    start = time.perf_counter()
+    band = Band.build(TriangleMesh((np.asarray(vertices) - centre) * scale, faces), h, stencil="anisotropic")
+    curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * h * h)
+    log(f"flow: {name} band at h = {h}: {band.size:,} points, principal directions "
+        f"({time.perf_counter() - start:.1f} s)")
+    noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.25 * h * h)
+    panels = []
+    for which, label in (("max", "MAXIMUM"), ("min", "MINIMUM")):
+        field = curvature.direction(which) * curvature.confidence[:, None]
+        start = time.perf_counter()
+        u = diffuse(band, noise, mode="flow", T=FLOW["T"] * h * h, field=field, contrast=FLOW["contrast"],
+                    beta=FLOW["beta"], scheme=scheme)
+        log(f"  flow along {which} curvature {time.perf_counter() - start:7.1f} s")
+        u = (u - u.min()) / (u.max() - u.min())
+        view = figures.surface_view(band, u, size=(size, size), elevation=5.0, azimuth=-80.0, extent=1.15)
+        panels.append(figures.panel(view, f"ALONG THE {label} CURVATURE"))
+    confidence = figures.surface_view(band, curvature.confidence, size=(size, size), elevation=5.0, azimuth=-80.0,
+                                      extent=1.15)
+    panels.append(figures.panel(confidence, "CONFIDENCE"))
+    path = os.path.join(out_dir, f"flow_{name}.png")
+    figures.save(path, figures.grid(panels, 3))
     return path
 
 
@@ -147,7 +183,12 @@ def run(out_dir, h=0.0125, log=print, scheme="fast"):
     log(f"diffusion scheme: {scheme}")
     path4, psnr, n = fig4(out_dir, h, log, scheme)
     path5 = fig5(out_dir, h, log, scheme)
-    path_flow = fig_flow(out_dir, h, log, scheme)
-    for path in (path4, path5, path_flow):
+    paths = [path4, path5, fig_flow(out_dir, h, log, scheme)]
+    with tempfile.TemporaryDirectory() as folder:
+        data = suzanne_arrays(folder, log)       # needs Blender's Python module
+        if data is not None:
+            arrays = np.load(data)
+            paths.append(fig_flow_mesh(out_dir, arrays["vertices"], arrays["faces"], h, log, scheme))
+    for path in paths:
         log(f"wrote {path}")
-    return path4, path5, path_flow
+    return tuple(paths)

@@ -470,8 +470,9 @@ def torus_noise():
     return band, noise, parallels, meridians
 
 
-def _stroke_alignment(band, u, field):
-    """Mean |cos| between the strokes of u (the minor eigenvector of its structure tensor) and a field."""
+def _stroke_alignment(band, u, field, where=True):
+    """Mean |cos| between the strokes of u (the minor eigenvector of its structure tensor) and a field,
+    over the inner band points ``where`` it is True."""
     from cp_stylize.stencils import gradient_matrices
     from cp_stylize.structure import eigen_2x2, reduce_to_tangent, structure_tensor
     from cp_stylize.tangent import tangent_basis
@@ -483,7 +484,7 @@ def _stroke_alignment(band, u, field):
     _, _, c1, s1 = eigen_2x2(*reduce_to_tangent(J, *Q))
     across = (Q[0] * c1 + Q[1] * s1).T
     along = np.cross(band.surface.normal(band.cp), across)
-    return float(np.mean(np.abs(np.sum(along * field, axis=1))[band.inner]))
+    return float(np.mean(np.abs(np.sum(along * field, axis=1))[band.inner & where]))
 
 
 @pytest.mark.parametrize("which", ["parallels", "meridians"])
@@ -537,9 +538,58 @@ def test_a_flow_on_a_sphere_falls_back_where_its_curvature_directions_are_undefi
 
 @pytest.mark.parametrize("kwargs, message", [
     (dict(mode="flow"), "mode 'flow' needs field="),
-    (dict(mode="eed", field=np.zeros((3, 3))), "field= is for mode 'flow' only"),
+    (dict(mode="eed", field=np.zeros((3, 3))), "field= is for the modes 'ced' and 'flow' only, not 'eed'"),
     (dict(mode="flow", field=np.zeros((3, 3))), "field must be a finite array of shape"),
 ])
 def test_the_field_is_checked(small_band, kwargs, message):
     with pytest.raises(ValueError, match=message):
         diffuse(small_band, np.zeros(small_band.size), T=0.01, **kwargs)
+
+
+def test_ink_lays_the_flow_texture_over_the_values_as_dark_strokes_along_the_field(torus_noise):
+    band, _, parallels, meridians = torus_noise
+    x, y, z = band.cp.T
+    u0 = np.stack([0.6 + 0.3 * np.sin(3 * x), 0.5 + 0.2 * z, np.full_like(x, 0.8)], axis=1)
+    u = diffuse(band, u0, mode="flow", T=20 * band.h**2, field=parallels, contrast=5.0, ink=0.7)
+    shade = u / u0                                              # one shade for all channels: the tones stay
+    np.testing.assert_allclose(shade, shade[:, :1] * np.ones((1, 3)), rtol=1e-12)
+    assert shade.min() == pytest.approx(0.3) and shade.max() == pytest.approx(1.0)
+    assert 0.2 < np.mean(shade[:, 0] < 0.9) < 0.6               # strokes, not a wash
+    along, across = _stroke_alignment(band, shade[:, 0], parallels), _stroke_alignment(band, shade[:, 0], meridians)
+    print(f"\nink strokes along the parallels: mean |cos| {along:.3f}; against the meridians {across:.3f}")
+    assert along >= 0.9 and across <= 0.35
+
+
+# -- CED's strokes along a given direction ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("which", ["parallels", "meridians"])
+def test_ced_draws_its_strokes_along_a_given_field_where_it_is_confident(torus_noise, which):
+    band, noise, parallels, meridians = torus_noise
+    field, other = (parallels, meridians) if which == "parallels" else (meridians, parallels)
+    T = 10 * band.h**2
+    kw = dict(mode="ced", T=T, b_rel=1e-6, **scaled(band.h, sigma=1e-4, rho=5e-4))
+    u = diffuse(band, noise, field=field, **kw)
+    along, across = _stroke_alignment(band, u, field), _stroke_alignment(band, u, other)
+    print(f"\nCED strokes along the {which}: mean |cos| {along:.3f}; against the other field {across:.3f}")
+    assert along >= 0.9 and across <= 0.4
+    # a line field: its sign does not matter, to the bit
+    np.testing.assert_array_equal(diffuse(band, noise, field=-field, **kw), u)
+    # no confidence, no change: the texture's own orientation
+    np.testing.assert_array_equal(diffuse(band, noise, field=0 * field, **kw), diffuse(band, noise, **kw))
+
+
+def test_ced_blends_towards_the_texture_where_the_field_is_unsure(torus_noise):
+    band, noise, parallels, meridians = torus_noise
+    # the texture: faint stripes across the parallels in the noise (strokes along the meridians);
+    # the field: the parallels, trusted on the outer half of the torus only
+    x, y, _ = band.cp.T
+    stripes = band.extend(0.2 * (np.sin(12 * np.arctan2(y, x)) > 0) + noise)
+    radius = np.hypot(x, y)
+    field = parallels * (radius > 1.0)[:, None]
+    u = diffuse(band, stripes, mode="ced", T=10 * band.h**2, b_rel=1e-6, field=field,
+                **scaled(band.h, sigma=1e-4, rho=5e-4))
+    outer, inner = radius > 1.15, radius < 0.85          # away from where the confidence jumps
+    assert _stroke_alignment(band, stripes, parallels, outer) < 0.3      # the texture's strokes cross the field
+    assert _stroke_alignment(band, u, parallels, outer) >= 0.85          # the field wins where it is trusted
+    assert _stroke_alignment(band, u, meridians, inner) >= 0.95          # the texture's own elsewhere

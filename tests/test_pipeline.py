@@ -85,3 +85,45 @@ def test_the_flow_mode_follows_the_minimum_curvature_of_the_mesh(torus_mesh):
     result = stylize(vertices, faces, colours, settings, uvs=uvs).image
     assert np.all(np.isfinite(result)) and np.abs(result - plain).max() > 0.1
     assert stroke_field(band, settings.replace(mode="ced")) is None
+
+
+def test_directions_from_an_attribute_are_a_line_field(torus_mesh):
+    from cp_stylize import Band
+    from cp_stylize.pipeline import sample_directions, stroke_field
+
+    vertices, faces, uvs = torus_mesh
+    band = Band.build(TriangleMesh(vertices / 14.0, faces), 0.1, stencil="anisotropic")
+    centres = (vertices / 14.0)[faces]                         # (F, 3, 3): corner positions
+    parallels = np.stack([-centres[..., 1], centres[..., 0], 0 * centres[..., 0]], axis=-1)
+    corners = 3.0 * parallels / np.linalg.norm(parallels, axis=-1, keepdims=True)   # any length
+    field = sample_directions(band, corners)
+    x, y, _ = band.cp.T
+    exact = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]
+    assert np.percentile(np.abs(np.sum(field * exact, axis=1)), 5) > 0.98
+    # flipping corners (one of each face, or whole faces) does not change the line field
+    flipped = corners.copy()
+    flipped[:, 1] *= -1
+    flipped[::2] *= -1
+    again = sample_directions(band, flipped)
+    np.testing.assert_allclose(np.abs(np.sum(again * field, axis=1)), np.sum(field * field, axis=1), atol=1e-12)
+    # the settings choose the source; "attribute" needs the vectors
+    settings = StylizeSettings(mode="ced", direction="attribute", spacing=0.1, T=1e-4, image_size=64)
+    np.testing.assert_array_equal(stroke_field(band, settings, corners), field)
+    with pytest.raises(ValueError, match=r"direction 'attribute' needs the mesh's vectors, directions= of shape"):
+        stylize(vertices, faces, ColourInput.constant(len(faces), (1, 1, 1)), settings)
+    with pytest.raises(ValueError, match="directions must have shape"):
+        sample_directions(band, corners[:10])
+
+
+def test_an_axis_gives_way_where_the_surface_faces_it(torus_mesh):
+    from cp_stylize import Band
+    from cp_stylize.pipeline import stroke_field
+    from cp_stylize.tangent import surface_normals
+
+    vertices, faces, _ = torus_mesh
+    band = Band.build(TriangleMesh(vertices / 14.0, faces), 0.1, stencil="anisotropic")
+    field = stroke_field(band, StylizeSettings(mode="ced", direction="axis", axis=(0, 0, 5)))
+    n = surface_normals(band)
+    tangential = np.linalg.norm(field - np.sum(field * n, axis=1)[:, None] * n, axis=1)
+    np.testing.assert_allclose(tangential, np.sqrt(1 - n[:, 2] ** 2), atol=1e-9)   # sin of the angle to the axis
+    assert tangential.min() < 0.05 and tangential.max() > 0.99   # the top of the torus faces the axis

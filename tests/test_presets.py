@@ -3,7 +3,8 @@ import pytest
 
 from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, parse_hex, save_preset
 
-REQUIRED = {"starry_night", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur"}
+REQUIRED = {"starry_night", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur",
+            "hatching", "van_gogh_form"}
 
 
 def test_every_shipped_preset_loads():
@@ -27,12 +28,31 @@ def test_starry_night_follows_the_paper():
     assert any(r > 0.9 and g > 0.7 and b < 0.4 for r, g, b in rgb)  # a star yellow
 
 
+def test_the_looks_along_the_form_follow_the_minimum_curvature():
+    hatching, van_gogh = load_preset("hatching"), load_preset("van_gogh_form")
+    assert (hatching.mode, hatching.stroke_direction, hatching.ink > 0) == ("flow", "min", True)
+    assert hatching.noise_fraction == 0                      # the texture keeps its tones: ink over it
+    starry = load_preset("starry_night")
+    assert (van_gogh.mode, van_gogh.stroke_direction) == ("ced", "min")
+    assert van_gogh.palette == starry.palette and van_gogh.noise_fraction == starry.noise_fraction
+
+
 def test_save_and_load_round_trip(tmp_path):
     s = load_preset("starry_night").replace(name="Mine", T=2e-4, image_size=2048)
     back = load_preset(save_preset(s, tmp_path / "mine.toml"))
     assert back.T == s.T and back.image_size == 2048 and back.mode == s.mode
     np.testing.assert_allclose(back.palette, s.palette, atol=1 / 255)
     assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
+
+
+def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_path):
+    assert StylizeSettings(mode="ced").stroke_direction == "texture"
+    assert StylizeSettings(mode="flow").stroke_direction == "min"
+    assert StylizeSettings(mode="eed").stroke_direction == "texture"
+    s = StylizeSettings(mode="ced", direction="attribute", axis=(1, 0, 0), attribute="comb", name="Combed")
+    back = load_preset(save_preset(s, tmp_path / "combed.toml"))
+    assert (back.direction, back.axis, back.attribute) == ("attribute", (1.0, 0.0, 0.0), "comb")
+    assert load_preset(save_preset(StylizeSettings(), tmp_path / "plain.toml")).direction is None
 
 
 def test_settings_scale_with_the_object():
@@ -48,6 +68,11 @@ def test_settings_scale_with_the_object():
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]', "'#rrggbb'"),
     ('mode = = "ced"', "not valid TOML"),
+    ('mode = "ced"\ndirection = "up"', "direction must be one of"),
+    ('mode = "eed"\ndirection = "min"', r"direction 'min' is for the modes \['ced', 'flow'\], not 'eed'"),
+    ('mode = "flow"\ndirection = "texture"', "mode 'flow' draws along a direction field"),
+    ('mode = "ced"\naxis = [0, 0, 0]', "axis must be three finite numbers, not all zero"),
+    ('mode = "ced"\naxis = [1, 2]', "axis must be three finite numbers"),
 ])
 def test_bad_presets_are_reported(tmp_path, text, message):
     path = tmp_path / "bad.toml"

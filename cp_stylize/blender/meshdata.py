@@ -27,6 +27,7 @@ class MeshData:
     render_uv: str | None = None    # the UV map the renderer reads by default
     colours: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 3) sRGB-encoded
     render_colour: str | None = None
+    directions: np.ndarray | None = None   # (F, 3, 3) world space: the vector attribute read, if asked for
 
 
 def _get(collection, attr, count, dtype, width=1):
@@ -35,11 +36,39 @@ def _get(collection, attr, count, dtype, width=1):
     return data.reshape(-1, width) if width > 1 else data
 
 
-def read(obj, depsgraph=None, *, corners=True):
+#: The domains a direction attribute may have, and how a triangle corner finds its value.
+VECTOR_DOMAINS = ("POINT", "CORNER", "FACE")
+
+
+def vector_attributes(mesh):
+    """Names of the mesh's 3-D vector attributes a stroke direction can be read from."""
+    return [a.name for a in mesh.attributes if a.data_type == "FLOAT_VECTOR" and a.domain in VECTOR_DOMAINS
+            and not (a.is_internal or a.is_required)]      # not the positions
+
+
+def _vectors(mesh, name, tris, loops, polygons, obj_name):
+    """Vector attribute ``name`` at the triangle corners (F, 3, 3), or StylizeError naming what there is."""
+    attr = mesh.attributes.get(name)
+    if attr is None or attr.data_type != "FLOAT_VECTOR" or attr.domain not in VECTOR_DOMAINS:
+        found = ", ".join(repr(n) for n in vector_attributes(mesh)) or "none"
+        what = "no attribute" if attr is None else f"no vector attribute on points, corners or faces (but a " \
+                                                   f"{attr.data_type} on {attr.domain})"
+        raise StylizeError(f"the mesh of {obj_name!r} has {what} named {name!r} for the stroke direction "
+                           f"(its vector attributes: {found})")
+    values = _get(attr.data, "vector", len(attr.data), np.float64, 3)
+    if attr.domain == "POINT":
+        return values[tris]
+    if attr.domain == "CORNER":
+        return values[loops]
+    return np.repeat(values[polygons][:, None, :], 3, axis=1)
+
+
+def read(obj, depsgraph=None, *, corners=True, vectors=None):
     """The :class:`MeshData` of mesh object ``obj``; ``corners=False`` reads only vertices and triangles.
 
-    Raises StylizeError for a mesh without faces or with vertex positions that
-    are not finite numbers.
+    ``vectors``: the name of a vector attribute to read into ``directions``
+    (world space).  Raises StylizeError for a mesh without faces, with vertex
+    positions that are not finite numbers, or without that attribute.
     """
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
@@ -68,6 +97,10 @@ def read(obj, depsgraph=None, *, corners=True):
                     data.colours[attr.name] = rgba[:, :3][data.loops if attr.domain == "CORNER" else tris]
             data.render_colour = getattr(attributes, "default_color_name", None) or (
                 attributes.active_color_name if len(attributes) else None)
+        if vectors:
+            loops = data.loops if data.loops is not None else _get(mesh.loop_triangles, "loops", n, np.int64, 3)
+            polygons = _get(mesh.loop_triangles, "polygon_index", n, np.int64)
+            data.directions = _vectors(mesh, vectors, tris, loops, polygons, obj.name)
     finally:
         evaluated.to_mesh_clear()
     bad = ~np.isfinite(verts[np.unique(tris)]).all(axis=1)
@@ -77,6 +110,8 @@ def read(obj, depsgraph=None, *, corners=True):
         raise StylizeError(f"the mesh of {obj.name!r} has {count} {noun} not a finite number")
     matrix = np.array(obj.matrix_world, dtype=np.float64)
     data.vertices = verts @ matrix[:3, :3].T + matrix[:3, 3]
+    if data.directions is not None:
+        data.directions = data.directions @ matrix[:3, :3].T   # tangent vectors move with the surface
     return data
 
 

@@ -2,7 +2,7 @@
 
 import bpy
 
-from ..parameters import FILTERS
+from ..parameters import DIRECTED_MODES, FILTERS
 from . import operators
 from .properties import filter_property
 
@@ -66,10 +66,19 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
 
         layout = _split(self.layout)
         layout.prop(settings, "mode")
+        obj = context.active_object
+        if settings.mode in DIRECTED_MODES:
+            layout.prop(settings, "direction")
+            if settings.direction == "axis":
+                layout.prop(settings, "axis")
+            elif settings.direction == "attribute":
+                if obj is not None and obj.type == "MESH":
+                    layout.prop_search(settings, "direction_attribute", obj.data, "attributes")
+                else:
+                    layout.prop(settings, "direction_attribute")
         layout.prop(settings, "quality")
         if settings.quality == "CUSTOM":
             layout.prop(settings, "spacing")
-        obj = context.active_object
         box = layout.box()
         if obj is not None and obj.type == "MESH":
             for line in _estimate_text(obj, settings):

@@ -14,7 +14,7 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import FILTER_PARAMETERS, FILTERS, RUN
+from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, RUN
 
 #: Grid spacing relative to an object whose longest side is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
@@ -49,6 +49,12 @@ def _current(name):
     return property(get, set, doc=f"{FILTER_PARAMETERS[name].label} of the current mode")
 
 
+def _mode_changed(self, context):
+    """Flow needs a direction field: leaving the texture's own for it, take the minimum curvature."""
+    if self.mode == "flow" and self.direction == "texture":
+        self.direction = "min"
+
+
 class CPStylizePaletteColour(bpy.types.PropertyGroup):
     colour: bpy.props.FloatVectorProperty(name="Colour", subtype="COLOR_GAMMA", size=3, min=0.0, max=1.0,
                                           default=(0.1, 0.15, 0.3))
@@ -59,7 +65,16 @@ class CPStylizePaletteColour(bpy.types.PropertyGroup):
 class CPStylizeSettings(bpy.types.PropertyGroup):
     preset_name: bpy.props.StringProperty(name="Preset", description="The preset last loaded", default="")
     mode: bpy.props.EnumProperty(name="Mode", items=[(f.name, f.label, f.description) for f in FILTERS.values()],
-                                 default="ced")
+                                 default="ced", update=_mode_changed)
+    direction: bpy.props.EnumProperty(
+        name="Stroke Direction", description="What the strokes of CED and Flow follow",
+        items=[(name, label, description) for name, (label, description) in DIRECTIONS.items()], default="texture")
+    axis: bpy.props.FloatVectorProperty(
+        name="Axis", description="The direction the strokes follow, in the object's space; projected onto the "
+                                 "surface, and the texture's own where the surface faces it",
+        size=3, subtype="XYZ", default=(0.0, 0.0, 1.0))
+    direction_attribute: bpy.props.StringProperty(
+        name="Attribute", description="The mesh's vector attribute (on points, corners or faces) the strokes follow")
     quality: bpy.props.EnumProperty(
         name="Quality",
         description="Grid spacing of the computational band, relative to the object's size",
@@ -112,11 +127,14 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from ..presets import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
+        directed = self.mode in DIRECTED_MODES
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
-            image_size=int(self.image_size), name=self.preset_name, params=params)
+            image_size=int(self.image_size), name=self.preset_name, params=params,
+            direction=self.direction if directed else None, axis=tuple(self.axis),
+            attribute=self.direction_attribute if directed and self.direction == "attribute" else "")
 
     def output(self):
         """What to do with a run's result, and its limits (the Output panel)."""
@@ -135,6 +153,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         self.spacing = settings.spacing
         for name, default in FILTERS[settings.mode].defaults.items():
             setattr(self, filter_property(settings.mode, name), settings.params.get(name, default))
+        self.direction = settings.stroke_direction
+        self.axis = settings.axis
+        self.direction_attribute = settings.attribute
         self.noise_fraction = settings.noise_fraction
         self.seed = settings.seed
         self.palette.clear()

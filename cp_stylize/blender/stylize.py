@@ -32,6 +32,7 @@ import threading
 import bpy
 import numpy as np
 
+from ..parameters import DIRECTED_MODES
 from . import bake, images, materials, meshdata
 from .changes import Changes
 from .errors import Cancelled, StylizeError
@@ -241,6 +242,16 @@ def _no_atlas_message(name, err):
     return f"{name!r} has no usable UV map for the result ({err.problems}) and cannot get a new one: {why}"
 
 
+def _direction_attribute(obj, settings):
+    """The vector attribute the strokes follow, or None; StylizeError if one is asked for but not named."""
+    if settings.mode not in DIRECTED_MODES or settings.stroke_direction != "attribute":
+        return None
+    if not settings.attribute:
+        raise StylizeError(f"the stroke direction is a mesh attribute, but none is chosen: pick one of "
+                           f"{obj.name!r}'s vector attributes")
+    return settings.attribute
+
+
 def prepare(obj, settings, output=Output(), depsgraph=None):
     """Check and read everything a run on ``obj`` needs; returns a :class:`Job`. Changes nothing in the file.
 
@@ -252,7 +263,10 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     check_object(obj)
     if output.storage == "SAVE":
         save_folder()
-    mesh = meshdata.read(obj, depsgraph)
+    mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
+    if settings.mode in DIRECTED_MODES and settings.stroke_direction == "axis":
+        # the axis is the object's; the core sees the mesh in world space
+        settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
     guess = estimate(mesh.vertices, mesh.triangles, settings)
     check_limits(guess, output)
     slot_count = len(obj.material_slots)
@@ -290,7 +304,8 @@ def run_core(job, progress=None, log=None):
 
     try:
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
-                             atlas=job.atlas, new_atlas=job.new_atlas, progress=progress, log=log)
+                             atlas=job.atlas, new_atlas=job.new_atlas, directions=job.mesh.directions,
+                             progress=progress, log=log)
     except UnusableUVs as err:
         raise StylizeError(_no_atlas_message(job.object_name, err)) from None
     return job.result

@@ -6,7 +6,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from cp_stylize.parameters import FILTERS  # noqa: E402
+from cp_stylize.parameters import DIRECTED_MODES, DIRECTIONS, FILTERS  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -25,6 +25,11 @@ class FakeLayout:
 
     def prop(self, data, name, **kwargs):
         assert name in data.bl_rna.properties, f"no property {name!r} on {data!r}"
+        self.log.append(("prop", name))
+
+    def prop_search(self, data, name, search_data, search_name, **kwargs):
+        assert name in data.bl_rna.properties, f"no property {name!r} on {data!r}"
+        assert search_name in search_data.bl_rna.properties, f"no collection {search_name!r} on {search_data!r}"
         self.log.append(("prop", name))
 
     def operator(self, idname, **kwargs):
@@ -67,6 +72,37 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     assert any("band points" in t for t in labels) and any(t.startswith("Roughly") for t in labels)
     # the preset menu lists the shipped presets
     assert sum(1 for kind, name in log if kind == "operator" and name == "cp_stylize.preset_load") >= 6
+
+
+@pytest.mark.parametrize("direction", list(DIRECTIONS))
+def test_the_stroke_direction_shows_what_it_needs(registered, direction):
+    from cp_stylize.blender import panel
+
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    for mode in FILTERS:
+        registered.mode = mode
+        registered.direction = direction
+        log = []
+        panel.VIEW3D_PT_cp_stylize.draw(types.SimpleNamespace(layout=FakeLayout(log)), bpy.context)
+        props = {name for kind, name in log if kind == "prop"}
+        assert ("direction" in props) == (mode in DIRECTED_MODES)
+        assert ("axis" in props) == (mode in DIRECTED_MODES and direction == "axis")
+        assert ("direction_attribute" in props) == (mode in DIRECTED_MODES and direction == "attribute")
+        settings = registered.to_settings() if (mode, direction) != ("flow", "texture") else None
+        if settings is not None:
+            assert settings.stroke_direction == (direction if mode in DIRECTED_MODES else "texture")
+
+
+def test_choosing_flow_leaves_the_textures_direction_for_the_minimum_curvature(registered):
+    registered.mode, registered.direction = "ced", "texture"
+    registered.mode = "flow"
+    assert registered.direction == "min" and registered.to_settings().stroke_direction == "min"
+    registered.mode, registered.direction = "ced", "axis"
+    registered.mode = "flow"
+    assert registered.direction == "axis"        # a field chosen stays
+    registered.direction = "texture"             # chosen by hand anyway: the run says why not
+    with pytest.raises(ValueError, match="mode 'flow' draws along a direction field"):
+        registered.to_settings()
 
 
 def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path, monkeypatch):

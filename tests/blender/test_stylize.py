@@ -287,3 +287,58 @@ def test_cancelling_a_background_run_stops_it_and_changes_nothing(addon):
     run.start()
     assert run.wait(timeout=600) and run.cancelled and run.job.result is None
     assert _counts() == counts and obj.material_slots[0].material is material
+
+
+def _suzanne(material):
+    bpy.ops.mesh.primitive_monkey_add()
+    obj = bpy.context.active_object
+    obj.name = "Suzanne"
+    bpy.ops.object.shade_smooth()
+    bpy.ops.object.modifier_add(type="SUBSURF")
+    obj.modifiers[-1].levels = 1
+    obj.rotation_euler = (0.4, 0.0, 0.7)
+    obj.data.materials.append(material)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def _vector_attribute(obj, name, vector, domain="POINT"):
+    attr = obj.data.attributes.new(name, "FLOAT_VECTOR", domain)
+    attr.data.foreach_set("vector", np.tile(np.asarray(vector, np.float32), len(attr.data)))
+    return attr
+
+
+def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
+    from cp_stylize.blender import stylize
+
+    obj = _suzanne(image_material("Painted", _warm_blobs()))
+    addon.quality, addon.spacing = "CUSTOM", 0.03
+    addon.noise_fraction, addon.time = 0.6, 2e-3                      # strokes to draw
+    for colour in ((0.05, 0.05, 0.2), (0.95, 0.9, 0.3)):
+        addon.palette.add().colour = colour
+    _vector_attribute(obj, "comb", (0.0, 0.0, 2.0))                  # any length: a direction
+    _vector_attribute(obj, "across", (1.0, 0.0, 0.0), domain="FACE")
+    addon.mode, addon.direction = "ced", "attribute"
+    addon.direction_attribute = "nothing"
+    with pytest.raises(Exception, match=r"has no attribute named 'nothing' for the stroke direction "
+                                        r"\(its vector attributes: 'comb', 'across'\)"):
+        stylize.prepare(obj, addon.to_settings())
+    addon.direction_attribute = "comb"
+    job = stylize.prepare(obj, addon.to_settings())
+    # read at every triangle corner, turned with the object into world space (the mesh's space in the core)
+    world = np.array(obj.matrix_world)[:3, :3] @ np.array([0.0, 0.0, 2.0])
+    assert job.mesh.directions.shape == (len(job.mesh.triangles), 3, 3)
+    np.testing.assert_allclose(job.mesh.directions.reshape(-1, 3), np.tile(world, (3 * len(job.mesh.triangles), 1)),
+                               atol=1e-6)
+    # the attribute is the one used: a constant one gives the axis' strokes, another attribute other strokes
+    results = {}
+    for key, direction, attribute, axis in (("comb", "attribute", "comb", (0, 0, 1)),
+                                            ("axis", "axis", "", (0, 0, 1)),
+                                            ("across", "attribute", "across", (0, 0, 1))):
+        addon.direction, addon.direction_attribute, addon.axis = direction, attribute, axis
+        job = stylize.prepare(obj, addon.to_settings())
+        results[key] = stylize.run_core(job).image
+    covered = np.any(results["comb"] > 0, axis=-1)
+    same, other = (np.abs(results["comb"] - results[k])[covered].mean() for k in ("axis", "across"))
+    print(f"\nmean change over the covered texels: axis {same:.2e}, other attribute {other:.3f}")
+    assert same < 1e-4 and other > 0.03

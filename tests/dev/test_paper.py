@@ -30,3 +30,27 @@ def test_grid_lays_out_panels_in_rows():
 def test_the_flow_figure_draws_both_curvature_directions(tmp_path):
     path = paper.fig_flow(str(tmp_path), h=0.08, log=lambda *a: None)
     assert (tmp_path / "flow_torus.png").stat().st_size > 10000 and path.endswith("flow_torus.png")
+
+
+def test_the_flow_figure_on_a_mesh_draws_both_directions_and_the_confidence(tmp_path):
+    from cp_stylize import Torus
+    from cp_stylize.mesh import parametric_mesh
+
+    vertices, faces, _ = parametric_mesh(Torus(1.0, 0.4).point, 48, 24, periodic_u=True, periodic_v=True)
+    path = paper.fig_flow_mesh(str(tmp_path), vertices, faces, h=0.08, log=lambda *a: None, name="torus_mesh",
+                               size=120)
+    assert path.endswith("flow_torus_mesh.png") and (tmp_path / "flow_torus_mesh.png").stat().st_size > 5000
+
+
+def test_a_surface_view_shows_the_values_where_the_rays_meet_the_surface():
+    from cp_stylize import Band, Sphere
+
+    band = Band.build(Sphere(), 0.1)
+    view = figures.surface_view(band, 1.0 + (band.cp[:, 2] > 0), size=(60, 60), elevation=0.0, azimuth=0.0,
+                                extent=1.2)
+    seen = view > 0
+    # the unit sphere seen side-on fills a disc of radius 1 in a view 2.4 wide, brighter in its top half
+    rows, cols = np.nonzero(seen)
+    radius = np.hypot((cols + 0.5) / 30 - 1, (rows + 0.5) / 30 - 1) * 1.2
+    assert radius.max() < 1.03 and abs(seen.mean() - np.pi / 2.4**2) < 0.03
+    assert np.median(view[:25][seen[:25]]) > 1.5 * np.median(view[35:][seen[35:]])

@@ -175,6 +175,14 @@ def scenario_panel():
         yield 1.5   # the panels slide into place
         screenshot(f"panel_{mode}", sidebar)
     facts["modes"] = modes
+    settings = bpy.context.scene.cp_stylize
+    settings.mode = "ced"
+    for direction in ("axis", "attribute"):   # the settings each stroke direction adds
+        settings.direction = direction
+        area.tag_redraw()
+        yield 1.5
+        screenshot(f"panel_direction_{direction}", sidebar)
+    facts["directions"] = ["axis", "attribute"]
 
 
 def scenario_undo():
