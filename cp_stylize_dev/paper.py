@@ -167,7 +167,8 @@ def fig_flow_mesh(out_dir, vertices, faces, h=0.008, log=print, scheme="fast", n
         u = diffuse(band, noise, mode="flow", T=FLOW["T"] * h * h, field=field, contrast=FLOW["contrast"],
                     beta=FLOW["beta"], scheme=scheme)
         log(f"  flow along {which} curvature {time.perf_counter() - start:7.1f} s")
-        u = (u - u.min()) / (u.max() - u.min())
+        lo, hi = np.percentile(u, [2, 98])          # a few extreme points (the eyes) would grey the rest
+        u = np.clip((u - lo) / (hi - lo), 0.0, 1.0)
         view = figures.surface_view(band, u, size=(size, size), elevation=5.0, azimuth=-80.0, extent=1.15)
         panels.append(figures.panel(view, f"ALONG THE {label} CURVATURE"))
     confidence = figures.surface_view(band, curvature.confidence, size=(size, size), elevation=5.0, azimuth=-80.0,
