@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .heat_flow import heat, heat_rows, time_steps
-from .parameters import DEFAULTS, FILTER_PARAMETERS, MODES
+from .parameters import DEFAULTS, DIRECTED_MODES, FILTER_PARAMETERS, MODES
 from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
@@ -32,7 +32,7 @@ from .structure import eigen_2x2, invariants, outer_products, products, reduce_t
 from .arrays import unit_rows
 from .tangent import surface_normals, tangent_basis
 
-__all__ = ["diffuse", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
+__all__ = ["diffuse", "flow_noise", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
 
 #: Time stepping schemes: see :func:`diffuse`.
 SCHEMES = ("fast", "reference")
@@ -207,8 +207,8 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         raise ValueError("u0 holds NaN or infinite values")
     if mode == "flow" and field is None:
         raise ValueError("mode 'flow' needs field=, an (N, 3) direction field such as principal_curvatures(band).e2")
-    if field is not None and mode not in ("ced", "flow"):
-        raise ValueError(f"field= is for the modes 'ced' and 'flow' only, not {mode!r}")
+    if field is not None and mode not in DIRECTED_MODES:
+        raise ValueError(f"field= is for the modes {' and '.join(map(repr, DIRECTED_MODES))} only, not {mode!r}")
     if field is not None:
         field = np.asarray(field, dtype=np.float64)
         if field.shape != (band.size, 3) or not np.all(np.isfinite(field)):
@@ -514,13 +514,18 @@ class _Flow:
 INK_SEED = 4
 
 
+def flow_noise(band, seed=0, dtype=np.float64):
+    """Seed 004's initial data for a flow texture: white noise in [0, 1] on the band, extended and
+    smoothed by a surface heat flow over ``h^2 / 4``."""
+    noise = np.random.default_rng(seed).uniform(0.0, 1.0, band.size).astype(dtype)
+    return heat(band, band.extend(noise), 0.25 * band.h**2)
+
+
 def _inked(band, u0, *, ink, **kw):
-    """Flow with ``ink``: seed 004's flow texture of white noise (briefly smoothed, over ``h^2 / 4``),
-    laid over ``u0`` as dark strokes: ``u0 (1 - ink max(1 - 2 s, 0))`` with ``s`` the texture scaled to
-    [0, 1], so that only its darker half draws."""
-    noise = band.extend(np.random.default_rng(INK_SEED).uniform(0.0, 1.0, band.size).astype(u0.dtype))
-    noise = heat(band, noise, 0.25 * band.h**2)
-    s = diffuse(band, noise, mode="flow", ink=0.0, **kw)
+    """Flow with ``ink``: seed 004's flow texture of :func:`flow_noise` laid over ``u0`` as dark strokes:
+    ``u0 (1 - ink max(1 - 2 s, 0))`` with ``s`` the texture scaled to [0, 1], so that only its darker
+    half draws."""
+    s = diffuse(band, flow_noise(band, INK_SEED, u0.dtype), mode="flow", ink=0.0, **kw)
     s = (s - s.min()) / max(float(s.max() - s.min()), _TINY)
     shade = (1.0 - ink * np.clip(1.0 - 2.0 * s, 0.0, 1.0)).astype(u0.dtype)   # its darker half: lines
     return u0 * (shade[:, None] if u0.ndim == 2 else shade)

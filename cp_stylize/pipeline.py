@@ -27,7 +27,6 @@ from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
 from .noise import inject_noise
-from .parameters import DIRECTED_MODES
 from .sampling import sample_texture
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
@@ -80,7 +79,7 @@ def stroke_field(band, settings, directions=None):
       face's first corner (see :func:`sample_directions`).
     """
     source = settings.stroke_direction
-    if source == "texture" or settings.mode not in DIRECTED_MODES:
+    if source == "texture":
         return None
     if source in ("max", "min"):
         curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
@@ -221,8 +220,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
     centre, scale = normalisation(vertices, faces)
-    if settings.stroke_direction == "attribute" and settings.mode in DIRECTED_MODES \
-            and np.shape(directions) != (len(faces), 3, 3):
+    if settings.stroke_direction == "attribute" and np.shape(directions) != (len(faces), 3, 3):
         raise ValueError(f"direction 'attribute' needs the mesh's vectors, directions= of shape ({len(faces)}, 3, 3), "
                          f"got {'none' if directions is None else np.shape(directions)}")
     mesh = TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale, faces)

@@ -134,7 +134,9 @@ class StylizeSettings:
 
     @property
     def stroke_direction(self):
-        """What the strokes follow: ``direction``, or the mode's own ("min" for Flow, else "texture")."""
+        """What the strokes follow: ``direction``, or the mode's own ("min" for Flow, else "texture").
+
+        Always "texture" for the modes that take no direction (the checks refuse any other)."""
         if self.direction is not None:
             return self.direction
         return "min" if self.mode == "flow" else "texture"

@@ -138,6 +138,7 @@ def surface_view(band, values, *, size=(300, 400), elevation=35.0, azimuth=30.0,
     exit_at = leave.min(axis=1)
     live = t < exit_at
     hit = np.zeros(len(origins), dtype=bool)
+    points = np.zeros((len(origins), 3))          # the closest points where the rays stop
     surface = band.surface
     tolerance = 1e-3 * band.h
     for _ in range(steps):
@@ -149,15 +150,15 @@ def surface_view(band, values, *, size=(300, 400), elevation=35.0, azimuth=30.0,
         d = np.linalg.norm(p - cp, axis=1)
         near = d < tolerance
         hit[index[near]] = True
+        points[index[near]] = cp[near]
         live[index[near]] = False
         t[index] += np.where(near, 0.0, d)
         live[index[t[index] > exit_at[index]]] = False
     values = np.asarray(values, dtype=np.float64)
     image = np.zeros((len(origins),) + values.shape[1:])
     if hit.any():
-        points = surface.closest_point(origins[hit] + t[hit, None] * forward)[0]
-        shade = _lambert(band, points, forward, right, up)
-        image[hit] = band.interpolate(values, points) * shade.reshape((-1,) + (1,) * (values.ndim - 1))
+        shade = _lambert(band, points[hit], forward, right, up)
+        image[hit] = band.interpolate(values, points[hit]) * shade.reshape((-1,) + (1,) * (values.ndim - 1))
     return image.reshape((h, w) + values.shape[1:])
 
 

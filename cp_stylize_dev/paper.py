@@ -26,8 +26,7 @@ import numpy as np
 
 from cp_stylize.band import Band
 from cp_stylize.curvature import principal_curvatures
-from cp_stylize.diffusion import diffuse
-from cp_stylize.heat_flow import heat
+from cp_stylize.diffusion import diffuse, flow_noise
 from cp_stylize.parameters import DEFAULTS
 from cp_stylize.surfaces import Sphere, Torus
 from cp_stylize.baking import bake_map
@@ -128,8 +127,7 @@ def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
     curvature = principal_curvatures(band)
     log(f"flow: torus band at h = {h}: {band.size:,} points, principal directions "
         f"({time.perf_counter() - start:.1f} s)")
-    # seed 004's initial data: white noise, briefly smoothed
-    noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.25 * h * h)
+    noise = flow_noise(band)          # seed 004's initial data: white noise, briefly smoothed
     values, captions = [noise], ["NOISE"]
     for which, name in (("max", "MAXIMUM"), ("min", "MINIMUM")):
         start = time.perf_counter()
@@ -159,7 +157,7 @@ def fig_flow_mesh(out_dir, vertices, faces, h=0.008, log=print, scheme="fast", n
     curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * h * h)
     log(f"flow: {name} band at h = {h}: {band.size:,} points, principal directions "
         f"({time.perf_counter() - start:.1f} s)")
-    noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.25 * h * h)
+    noise = flow_noise(band)
     panels = []
     for which, label in (("max", "MAXIMUM"), ("min", "MINIMUM")):
         field = curvature.direction(which) * curvature.confidence[:, None]

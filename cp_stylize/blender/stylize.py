@@ -32,7 +32,6 @@ import threading
 import bpy
 import numpy as np
 
-from ..parameters import DIRECTED_MODES
 from . import bake, images, materials, meshdata
 from .changes import Changes
 from .errors import Cancelled, StylizeError
@@ -244,7 +243,7 @@ def _no_atlas_message(name, err):
 
 def _direction_attribute(obj, settings):
     """The vector attribute the strokes follow, or None; StylizeError if one is asked for but not named."""
-    if settings.mode not in DIRECTED_MODES or settings.stroke_direction != "attribute":
+    if settings.stroke_direction != "attribute":
         return None
     if not settings.attribute:
         raise StylizeError(f"the stroke direction is a mesh attribute, but none is chosen: pick one of "
@@ -264,7 +263,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     if output.storage == "SAVE":
         save_folder()
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
-    if settings.mode in DIRECTED_MODES and settings.stroke_direction == "axis":
+    if settings.stroke_direction == "axis":
         # the axis is the object's; the core sees the mesh in world space
         settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
     guess = estimate(mesh.vertices, mesh.triangles, settings)
