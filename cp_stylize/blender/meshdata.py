@@ -51,8 +51,8 @@ def _vectors(mesh, name, tris, loops, polygons, obj_name):
     attr = mesh.attributes.get(name)
     if attr is None or attr.data_type != "FLOAT_VECTOR" or attr.domain not in VECTOR_DOMAINS:
         found = ", ".join(repr(n) for n in vector_attributes(mesh)) or "none"
-        what = "no attribute" if attr is None else f"no vector attribute on points, corners or faces (but a " \
-                                                   f"{attr.data_type} on {attr.domain})"
+        what = "no attribute" if attr is None else f"no vector attribute on points, corners or faces (but one " \
+                                                   f"of type {attr.data_type} on {attr.domain})"
         raise StylizeError(f"the mesh of {obj_name!r} has {what} named {name!r} for the stroke direction "
                            f"(its vector attributes: {found})")
     values = _get(attr.data, "vector", len(attr.data), np.float64, 3)

@@ -127,14 +127,15 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from ..presets import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
-        directed = self.mode in DIRECTED_MODES
+        direction = self.direction if self.mode in DIRECTED_MODES else None
+        # the axis and the attribute only when they are used: a zeroed axis must not stop an attribute run
+        used = {"axis": {"axis": tuple(self.axis)}, "attribute": {"attribute": self.direction_attribute}}
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, params=params,
-            direction=self.direction if directed else None, axis=tuple(self.axis),
-            attribute=self.direction_attribute if directed and self.direction == "attribute" else "")
+            direction=direction, **used.get(direction, {}))
 
     def output(self):
         """What to do with a run's result, and its limits (the Output panel)."""

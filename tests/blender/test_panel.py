@@ -103,6 +103,12 @@ def test_choosing_flow_leaves_the_textures_direction_for_the_minimum_curvature(r
     registered.direction = "texture"             # chosen by hand anyway: the run says why not
     with pytest.raises(ValueError, match="mode 'flow' draws along a direction field"):
         registered.to_settings()
+    # an axis is checked only where it is used: zeroed, it stops an axis run, not an attribute run
+    registered.direction, registered.axis, registered.direction_attribute = "axis", (0, 0, 0), "comb"
+    with pytest.raises(ValueError, match="axis must be three finite numbers, not all zero"):
+        registered.to_settings()
+    registered.direction = "attribute"
+    assert registered.to_settings().attribute == "comb"
 
 
 def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path, monkeypatch):
