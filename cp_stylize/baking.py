@@ -79,7 +79,8 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
     A covered texel with barycentric coordinates ``bary`` in face ``f`` maps
     to the 3-D point ``sum_i bary_i V[f_i]``, which lies on the mesh (no
     closest point search is needed), and takes the band's tricubic
-    interpolant there.  A margin texel finds its nearest covered texel (a
+    interpolant there, kept to the point's own sheet of the surface where
+    another one passes within the stencil (``Band.interpolation_matrix``).  A margin texel finds its nearest covered texel (a
     Euclidean distance transform) and continues that texel's face map
     linearly: its UV point, pulled back to within two texels of the face's
     UV triangle, has barycentric coordinates (some negative) that give a
@@ -102,6 +103,7 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
     corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
     texels = [atlas.texels]
     points = [np.einsum("mi,mij->mj", atlas.bary, corners[mesh.kept_index(atlas.face)])]
+    faces, barys = [atlas.face], [atlas.bary]          # which sheet each point is on (Band._one_sheet)
 
     covered = atlas.coverage
     if margin > 0 and len(atlas.texels):
@@ -122,15 +124,21 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
             bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
             plane = np.einsum("mi,mij->mj", bary, corners[mesh.kept_index(face)])
             texels.append(ring)
-            points.append(mesh.closest_point(plane)[0])
+            snapped, _, on_face, on_bary = mesh.closest_point_on_faces(plane)
+            points.append(snapped)
+            faces.append(on_face)
+            barys.append(on_bary)
     texels = np.concatenate(texels)
     points = np.concatenate(points)
+    faces, barys = np.concatenate(faces), np.concatenate(barys)
 
     channels = 1 if values.ndim == 1 else values.shape[1]
     image = np.full((size * size, channels), fill, dtype=values.dtype)
     for s in range(0, len(points), _POINTS):
-        out = band.interpolate(values, points[s:s + _POINTS])
-        image[texels[s:s + _POINTS]] = out.reshape(len(out), channels)
+        part = slice(s, s + _POINTS)
+        out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
+                               mesh.piece[faces[part]])
+        image[texels[part]] = out.reshape(len(out), channels)
     return image.reshape(size, size, channels)
 
 

@@ -189,7 +189,11 @@ class Band:
         self._index[tuple((self.ijk - self._lo).T)] = np.arange(self.size)
         self._matrices = {}
         self._stencil_table = None
-        self.E = self._interpolation_matrix(self.cp, np.float32)
+        self.normals, self.pieces = _sheet_keys(surface, self.cp, self.face, self.bary)
+        moved = []
+        self.E = self._interpolation_matrix(self.cp, np.float32, self.normals, self.pieces, moved)
+        #: band points whose extension keeps to their own sheet with trilinear weights (see :meth:`_one_sheet`)
+        self.separated = int(sum(moved))
         self.inner = np.zeros(self.size, dtype=bool)
         self.inner[self.E.indices] = True
         self._check_stencils()
@@ -297,7 +301,7 @@ class Band:
         """Flat positions in the index volume of coordinates relative to its corner."""
         return flat_index(rel, self._shape)
 
-    def _interpolation_matrix(self, x, dtype):
+    def _interpolation_matrix(self, x, dtype, normals=None, pieces=None, moved=None):
         x = np.asarray(x, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != 3:
             raise ValueError(f"interpolation points must have shape (M, 3), got {x.shape}")
@@ -321,6 +325,11 @@ class Band:
             corner = np.where(inside, self._flat(rel), 0).astype(index.dtype)
             np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
             indices[s:e][~inside] = -1
+            if normals is not None and self.normals is not None:
+                n = self._one_sheet(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), normals[s:e],
+                                    None if pieces is None else pieces[s:e])
+                if moved is not None:
+                    moved.append(n)     # list.append is atomic: the chunks run on several threads
 
         map_parallel(chunk, range(0, len(x), _CHUNK))
         if len(x) and indices.min() < 0:
@@ -332,18 +341,95 @@ class Band:
         indptr = np.arange(0, n_w * len(x) + 1, n_w, dtype=np.int64)
         return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(len(x), self.size))
 
-    def interpolation_matrix(self, x, dtype=np.float32):
+    def _other_sheet(self, nodes, x, normals, pieces):
+        """Whether the band points ``nodes`` (M, K; -1 for none) lie on another sheet than the surface
+        points ``x`` (M, 3) with ``normals`` (and ``pieces``): (M, K) bool.  See :meth:`_one_sheet`."""
+        safe = np.maximum(nodes, 0)
+        facing = np.empty(safe.shape, dtype=bool)
+        for k in range(safe.shape[1]):          # one stencil slot at a time: no (M, K, 3) temporaries
+            facing[:, k] = np.einsum("ij,ij->i", normals, self.normals[safe[:, k]]) < 0.0
+        other = np.zeros(safe.shape, dtype=bool)
+        rows = np.flatnonzero(facing.any(axis=1))
+        offset = np.einsum("ikj,ij->ik", self.cp[safe[rows]] - x[rows, None, :], normals[rows])
+        other[rows] = facing[rows] & (np.abs(offset) > 0.5 * self.h)
+        if pieces is not None:
+            other |= self.pieces[safe] != pieces[:, None]
+        other &= nodes >= 0
+        return other
+
+    def cut_links(self, nodes, rows=slice(None)):
+        """Which finite difference links cross between sheets: (M, K) bool for the band points ``rows``
+        (an index or mask) and their neighbours ``nodes`` (M, K), or None for surfaces without normals.
+
+        The operators drop these links (their rows still sum to zero), so
+        that the sheets of a surface that comes back near itself exchange
+        nothing; see :meth:`_one_sheet`.
+        """
+        if self.normals is None:
+            return None
+        return self._other_sheet(nodes, self.cp[rows], self.normals[rows],
+                                 None if self.pieces is None else self.pieces[rows])
+
+    def _one_sheet(self, data, indices, x, t, normals, pieces):
+        """Keep each interpolation stencil on the sheet of the surface its point lies on (in place).
+
+        Where a surface comes back near itself (the two sides of a thin ear,
+        an eyelid over an eyeball), one stencil can hold grid points whose
+        closest points lie on another sheet: far away along the surface but
+        near in space.  Their values would leak across, and the negative
+        tricubic weights next to such a jump make the repeated extension grow
+        them.  A stencil point is on another sheet if its closest point lies
+        on another connected piece of a mesh, or if its normal faces the other
+        way and its closest point lies off the tangent plane at ``x`` by more
+        than h / 2 (so a patch of flipped faces is not cut off from its
+        neighbours).  Rows that hold such a point get trilinear weights on
+        the same-sheet corners of the grid cell around ``x``, renormalised:
+        non-negative, so the extension there is monotone, at second order
+        instead of fourth.  Rows whose cell has no same-sheet corner keep
+        their weights (the sheets are closer than the grid can tell apart).
+        Returns the number of rows changed.
+        """
+        p = self.degree
+        other = self._other_sheet(indices, x, normals, pieces)
+        rows = np.flatnonzero(other.any(axis=1) & (indices.min(axis=1) >= 0))
+        other = other[rows]
+        if not len(rows):
+            return 0
+        lower = (p - 1) // 2                      # the cell's corners are nodes lower and lower + 1 per axis
+        nodes = np.array(list(itertools.product(range(p + 1), repeat=3)), dtype=np.int64)
+        w = np.ones((len(rows), len(nodes)))
+        for a in range(3):
+            ta = t[rows, a][:, None]
+            w *= np.where(nodes[:, a] == lower, 1.0 - ta, np.where(nodes[:, a] == lower + 1, ta, 0.0))
+        w[other] = 0.0
+        total = w.sum(axis=1)
+        keep = total > 1e-3
+        data[rows[keep]] = w[keep] / total[keep, None]
+        return int(keep.sum())
+
+    def interpolation_matrix(self, x, dtype=np.float32, normals=None, pieces=None):
         """Sparse (M, N) matrix that interpolates band values at surface points ``x`` (M, 3).
 
         Each row holds the (degree + 1)^3 tensor-product Lagrange weights of the
-        grid points around ``x``.  Raises ValueError where a stencil leaves the band.
+        grid points around ``x``.  Given the surface's unit ``normals`` at ``x``
+        (M, 3), and for meshes the ``pieces`` (M,) of their faces
+        (``surface.piece[face]``), each row keeps to the sheet of the surface
+        ``x`` lies on, as the extension E does (see :meth:`_one_sheet`).
+        Raises ValueError where a stencil leaves the band.
         """
-        return self._interpolation_matrix(x, _float_type(dtype))
+        if normals is not None:
+            normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
+            if len(normals) != len(x):
+                raise ValueError(f"normals must have shape ({len(x)}, 3), got {normals.shape}")
+        if pieces is not None and self.pieces is None:
+            raise ValueError("pieces apply to bands of triangle meshes only")
+        return self._interpolation_matrix(x, _float_type(dtype), normals, pieces)
 
-    def interpolate(self, values, x):
-        """Values at surface points ``x`` (M, 3) interpolated from band ``values`` (N,) or (N, k)."""
+    def interpolate(self, values, x, normals=None, pieces=None):
+        """Values at surface points ``x`` (M, 3) interpolated from band ``values`` (N,) or (N, k);
+        ``normals`` and ``pieces`` as for :meth:`interpolation_matrix`."""
         values = self.check_values(values)
-        return apply(self.interpolation_matrix(x, values.dtype), values)
+        return apply(self.interpolation_matrix(x, values.dtype, normals, pieces), values)
 
     def extension_matrix(self, dtype=np.float32):
         """The extension matrix E (N, N) in ``dtype`` (float32 or float64)."""
@@ -384,7 +470,8 @@ class Band:
         key = (name, dtype)
         if key not in self._matrices:
             if name == "E":
-                m = self.E if dtype == self.E.dtype else self._interpolation_matrix(self.cp, dtype)
+                m = self.E if dtype == self.E.dtype else self._interpolation_matrix(self.cp, dtype, self.normals,
+                                                                                    self.pieces)
             else:
                 m = self._build_laplacian(dtype)
             self._matrices[key] = m
@@ -397,9 +484,13 @@ class Band:
         k = len(offsets)
         counts = np.where(full, k, 0)
         indptr = np.concatenate([[0], np.cumsum(counts)])
-        coef = np.full(k, 1.0 / self.h**2)
-        coef[0] = -(k - 1) / self.h**2
-        data = np.tile(coef, int(full.sum())).astype(dtype)
+        coef = np.full((int(full.sum()), k), 1.0 / self.h**2)
+        coef[:, 0] = -(k - 1) / self.h**2
+        cut = self.cut_links(nbr[full, 1:], full)
+        if cut is not None and cut.any():
+            coef[:, 1:][cut] = 0.0
+            coef[:, 0] = -coef[:, 1:].sum(axis=1)
+        data = coef.astype(dtype).ravel()
         L = sp.csr_matrix((data, nbr[full].ravel().astype(self.E.indices.dtype), indptr), shape=(self.size, self.size))
         L.sort_indices()  # canonical: products sum each row in column order, whatever touched L before
         return L
@@ -422,6 +513,17 @@ class Band:
         if v.ndim not in (1, 2) or v.shape[0] != self.size:
             raise ValueError(f"band values must have shape ({self.size},) or ({self.size}, k), got {v.shape}")
         return v.astype(_float_type(v.dtype), copy=False)
+
+
+def _sheet_keys(surface, cp, face, bary):
+    """What tells the sheets of a surface apart at closest points ``cp``: unit normals (N, 3) float32, or
+    None for surfaces without normals, and for triangle meshes the connected piece of each point's face."""
+    normal = getattr(surface, "normal", None)
+    if normal is None:
+        return None, None
+    n = normal(cp, face, bary) if face is not None else normal(cp)
+    piece = getattr(surface, "piece", None)
+    return (np.asarray(n, dtype=np.float32), None if piece is None or face is None else piece[face])
 
 
 def flat_index(rel, shape):

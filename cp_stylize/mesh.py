@@ -115,6 +115,24 @@ class TriangleMesh:
         self.face_normals = self._search.normals
         self.vertex_normals = self._angle_weighted_normals(a, b, c)
         self._kept = None
+        self._piece = None
+
+    @property
+    def piece(self):
+        """A label (F,) of the connected piece of each input face: faces sharing a vertex position
+        are in one piece, so vertices split at seams do not cut a surface apart."""
+        if self._piece is None:
+            from scipy.sparse import csr_matrix
+            from scipy.sparse.csgraph import connected_components
+
+            _, welded = np.unique(self.vertices, axis=0, return_inverse=True)
+            corners = welded.reshape(-1)[self.input_faces]
+            n = len(self.input_faces)
+            # a graph of faces and vertex positions: face f links to its three corners
+            links = csr_matrix((np.ones(3 * n), (np.repeat(np.arange(n), 3), n + corners.ravel())),
+                               shape=(n + len(self.vertices),) * 2)
+            self._piece = connected_components(links, directed=False)[1][:n].astype(np.int32)
+        return self._piece
 
     @property
     def n_input_faces(self):

@@ -92,6 +92,11 @@ class DivergenceOperator:
         self._template.has_sorted_indices = True
         #: band indices of the inner points' stencils by stencil slot (19, n_inner)
         self.columns = columns.T[np.argsort(self._order)]
+        # links between sheets of a surface that comes back near itself (Band.cut_links): dropped
+        cut = band.cut_links(self.columns[1:].T, self.rows)
+        cut = None if cut is None else cut.T
+        #: the stencil slots (1..18) and inner points where links are cut; None if there are none
+        self._cut = None if cut is None or not cut.any() else (np.flatnonzero(cut.any(axis=0)), cut)
 
     def matrix(self, G):
         """The CSR matrix A(G) (N, N); rows outside the inner points are empty.
@@ -130,6 +135,12 @@ class DivergenceOperator:
             np.add(at[(a, b, a, sa)], at[(a, b, b, sb)], out=w[7 + k])
             w[7 + k] *= sa * sb
             w[7 + k] /= 4.0 * h2
+        if self._cut is not None:           # rows that lose links still sum to zero
+            points, cut = self._cut
+            part = w[1:, points]
+            part[cut[:, points]] = 0.0
+            w[1:, points] = part
+            w[0, points] = -part.sum(axis=0)
         data.reshape(n, 19)[:] = w[self._order].T
         return data
 

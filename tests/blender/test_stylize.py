@@ -341,4 +341,4 @@ def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
     covered = np.any(results["comb"] > 0, axis=-1)
     same, other = (np.abs(results["comb"] - results[k])[covered].mean() for k in ("axis", "across"))
     print(f"\nmean change over the covered texels: axis {same:.2e}, other attribute {other:.3f}")
-    assert same < 1e-4 and other > 0.03
+    assert same < 1e-4 and other > 0.02
