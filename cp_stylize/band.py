@@ -367,8 +367,13 @@ class Band:
         """
         if self.normals is None:
             return None
-        return self._other_sheet(nodes, self.cp[rows], self.normals[rows],
-                                 None if self.pieces is None else self.pieces[rows])
+        rows = np.arange(self.size)[rows]
+        out = np.empty(nodes.shape, dtype=bool)
+        for s in range(0, len(rows), _CHUNK):       # in blocks: its temporaries are (block, K) arrays
+            part, r = slice(s, s + _CHUNK), rows[s:s + _CHUNK]
+            out[part] = self._other_sheet(nodes[part], self.cp[r], self.normals[r],
+                                          None if self.pieces is None else self.pieces[r])
+        return out
 
     def _one_sheet(self, data, indices, x, t, normals, pieces):
         """Keep each interpolation stencil on the sheet of the surface its point lies on (in place).
