@@ -326,8 +326,8 @@ class Band:
             np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
             indices[s:e][~inside] = -1
             if normals is not None and self.normals is not None:
-                n = self._one_sheet(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), normals[s:e],
-                                    None if pieces is None else pieces[s:e])
+                n = self._one_sheet(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
+                                    normals[s:e], None if pieces is None else pieces[s:e])
                 if moved is not None:
                     moved.append(n)     # list.append is atomic: the chunks run on several threads
 
@@ -375,7 +375,7 @@ class Band:
                                           None if self.pieces is None else self.pieces[r])
         return out
 
-    def _one_sheet(self, data, indices, x, t, normals, pieces):
+    def _one_sheet(self, data, indices, x, t, nodes, normals, pieces):
         """Keep each interpolation stencil on the sheet of the surface its point lies on (in place).
 
         Where a surface comes back near itself (the two sides of a thin ear,
@@ -392,7 +392,8 @@ class Band:
         non-negative, so the extension there is monotone, at second order
         instead of fourth.  Rows whose cell has no same-sheet corner keep
         their weights (the sheets are closer than the grid can tell apart).
-        Returns the number of rows changed.
+        ``nodes`` (64, 3) are the stencil's offsets in the order of its
+        weights.  Returns the number of rows changed.
         """
         p = self.degree
         other = self._other_sheet(indices, x, normals, pieces)
@@ -401,7 +402,6 @@ class Band:
         if not len(rows):
             return 0
         lower = (p - 1) // 2                      # the cell's corners are nodes lower and lower + 1 per axis
-        nodes = np.array(list(itertools.product(range(p + 1), repeat=3)), dtype=np.int64)
         w = np.ones((len(rows), len(nodes)))
         for a in range(3):
             ta = t[rows, a][:, None]
@@ -423,7 +423,7 @@ class Band:
         Raises ValueError where a stencil leaves the band.
         """
         if normals is not None:
-            normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
+            normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
             if len(normals) != len(x):
                 raise ValueError(f"normals must have shape ({len(x)}, 3), got {normals.shape}")
         if pieces is not None and self.pieces is None:
@@ -521,14 +521,16 @@ class Band:
 
 
 def _sheet_keys(surface, cp, face, bary):
-    """What tells the sheets of a surface apart at closest points ``cp``: unit normals (N, 3) float32, or
-    None for surfaces without normals, and for triangle meshes the connected piece of each point's face."""
+    """What tells the sheets of a surface apart at closest points ``cp``: the surface's own unit normals
+    (N, 3) (read-only; :func:`cp_stylize.tangent.surface_normals` hands them out), or None for surfaces
+    without normals, and for triangle meshes the connected piece of each point's face."""
     normal = getattr(surface, "normal", None)
     if normal is None:
         return None, None
-    n = normal(cp, face, bary) if face is not None else normal(cp)
+    n = np.array(normal(cp, face, bary) if face is not None else normal(cp), dtype=np.float64)
+    n.setflags(write=False)
     piece = getattr(surface, "piece", None)
-    return (np.asarray(n, dtype=np.float32), None if piece is None or face is None else piece[face])
+    return n, None if piece is None or face is None else piece[face]
 
 
 def flat_index(rel, shape):

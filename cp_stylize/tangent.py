@@ -165,12 +165,8 @@ def surface_normals(band, normals=None):
         an array is taken as given.
     """
     if normals is None:
-        normal = getattr(band.surface, "normal", None)
-        if normal is None:
-            return jacobian_normals(band)
-        if band.face is not None:
-            return np.asarray(normal(band.cp, band.face, band.bary), dtype=np.float64)
-        return np.asarray(normal(band.cp), dtype=np.float64)
+        # the surface's own normals, which the band keeps (read-only) to tell its sheets apart
+        return jacobian_normals(band) if band.normals is None else band.normals
     if isinstance(normals, str):
         if normals != "jacobian":
             raise ValueError(f"normals must be None, 'jacobian' or an (N, 3) array, got {normals!r}")
