@@ -1,4 +1,4 @@
-"""Command line: ``python -m cp_stylize {demo,paper,bench,docs} ...`` (from a checkout: the tools live in
+"""Command line: ``python -m cp_stylize {demo,paper,bench,looks,docs} ...`` (from a checkout: the tools live in
 ``cp_stylize_dev``, which the extension does not ship)."""
 
 from __future__ import annotations
@@ -29,6 +29,10 @@ def _bench(args):
     _tool("bench").run(quick=args.quick, json_path=args.json)
 
 
+def _looks(args):
+    _tool("looks").run(args.out)
+
+
 def _docs(args):
     _tool("docs").run()
 
@@ -53,6 +57,9 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="coarse grids, for a smoke run (under a minute)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON to FILE")
     p.set_defaults(func=_bench)
+    p = sub.add_parser("looks", help="measure the presets' looks on the forest-photo sphere (minutes)")
+    p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")
+    p.set_defaults(func=_looks)
     p = sub.add_parser("docs", help="write the README's parameter tables from cp_stylize/parameters.py")
     p.set_defaults(func=_docs)
     args = parser.parse_args(argv)

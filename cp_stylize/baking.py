@@ -14,6 +14,8 @@ Images are float arrays (H, W, C), row 0 at the bottom (see :mod:`~cp_stylize.te
 
 from __future__ import annotations
 
+import typing
+
 import numpy as np
 from scipy import ndimage
 
@@ -21,12 +23,33 @@ from .arrays import count
 from .atlas import Atlas, check_mesh
 from .texture import texel_centres
 
-__all__ = ["bake_to_atlas", "bake_map"]
+__all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail"]
 
 #: Band interpolations at once (each builds 64 weights a point).
 _POINTS = 1 << 16
 #: Margin texels continue their island's map linearly this far out, in texels.
 _REACH = 2.0
+#: Where the filter changed the band's colour by this much (RGB distance, values in
+#: [0, 1]), the input's own detail comes back at exp(-1) of its strength: see :func:`lay_detail`.
+DETAIL_CHANGE = 0.01
+#: Where the filter changed the colour, detail weaker than this many of its robust
+#: standard deviations (a noise level) is dropped: see :func:`lay_detail`.
+DETAIL_THRESHOLD = 1.5
+
+
+class Detail(typing.NamedTuple):
+    """The input's own detail, finer than the band, for :func:`bake_to_atlas` to lay back.
+
+    ``sampled`` (N, C) are the band values the filter started from (the input
+    read at the closest points, before any noise), and ``colour_at(face, bary)``
+    gives the input's colour (M, C) at any points of the mesh, given by their
+    input face (M,) and barycentric coordinates (M, 3).  ``strength`` in [0, 1]
+    scales the detail (0: the band's resolution only).
+    """
+
+    sampled: np.ndarray
+    colour_at: typing.Callable
+    strength: float = 1.0
 
 
 def _barycentric_2d(q, a, b, c):
@@ -52,7 +75,7 @@ def _closest_in_triangle_2d(q, a, b, c):
     return np.where(inside[:, None], q, nearest)
 
 
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None):
     """Image of band values laid out on a UV atlas.
 
     Parameters
@@ -68,6 +91,10 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
         value of the nearest island border point.
     fill : float
         Value of the texels farther than ``margin`` from every island.
+    detail : Detail, optional
+        Lay the input's own detail, finer than the band, back over the
+        result where the filter left it (:func:`lay_detail`): a run that
+        changes nothing then gives back the input's colours texel for texel.
 
     Returns
     -------
@@ -99,6 +126,36 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
                          f"{mesh.n_input_faces}")
     margin = count(margin, "margin", minimum=0, unit=" number of texels")
     values = band.check_values(values)
+    channels = 1 if values.ndim == 1 else values.shape[1]
+    if detail is not None:
+        sampled = band.check_values(detail.sampled).reshape(band.size, -1)
+        if sampled.shape[1] != channels:
+            raise ValueError(f"the detail's sampled values have {sampled.shape[1]} channel(s), the values {channels}")
+        values = np.hstack([values.reshape(band.size, channels), sampled.astype(values.dtype)])
+    texels, points, faces, barys = atlas_points(mesh, atlas, margin)
+    size = atlas.size
+    found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
+    for s in range(0, len(points), _POINTS):
+        part = slice(s, s + _POINTS)
+        out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
+                               mesh.piece[faces[part]])
+        found[part] = out.reshape(len(out), -1)
+    if detail is not None:
+        original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
+        found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
+    image = np.full((size * size, channels), fill, dtype=values.dtype)
+    image[texels] = found
+    return image.reshape(size, size, channels)
+
+
+def atlas_points(mesh, atlas, margin):
+    """The texels an atlas bakes and the surface points they read.
+
+    Returns ``(texels, points, faces, barys)``: flat texel indices (M,), the
+    points (M, 3) on the mesh, and each point's input face (M,) and
+    barycentric coordinates (M, 3): the covered texels first, then the
+    margin's (see :func:`bake_to_atlas`).
+    """
     size = atlas.size
     corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
     texels = [atlas.texels]
@@ -128,18 +185,31 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0):
             points.append(snapped)
             faces.append(on_face)
             barys.append(on_bary)
-    texels = np.concatenate(texels)
-    points = np.concatenate(points)
-    faces, barys = np.concatenate(faces), np.concatenate(barys)
+    return tuple(np.concatenate(a) for a in (texels, points, faces, barys))
 
-    channels = 1 if values.ndim == 1 else values.shape[1]
-    image = np.full((size * size, channels), fill, dtype=values.dtype)
-    for s in range(0, len(points), _POINTS):
-        part = slice(s, s + _POINTS)
-        out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
-                               mesh.piece[faces[part]])
-        image[texels[part]] = out.reshape(len(out), channels)
-    return image.reshape(size, size, channels)
+
+def lay_detail(result, sampled, original, strength=1.0):
+    """The result (M, C) with the input's detail finer than the band laid back over it.
+
+    ``sampled`` is the band's interpolant of the input at the same points
+    (what the filter started from, at the band's resolution) and ``original``
+    the input's own colour there, so ``d = original - sampled`` is the detail
+    the band cannot hold.  Where the filter changed little (``result -
+    sampled`` small against :data:`DETAIL_CHANGE`) ``d`` comes back whole; a
+    run that changes nothing returns ``original``.  Where it changed the
+    colour, ``d`` is first shrunk (soft-thresholded) by
+    :data:`DETAIL_THRESHOLD` times its robust standard deviation (the median
+    absolute deviation, 1.4826 MAD, per channel): a texture's fine noise,
+    which the filter was run to remove, stays away, while edges sharper than
+    the band come back.  ``strength`` scales the detail.
+    """
+    result = np.asarray(result)
+    d = np.asarray(original, dtype=result.dtype) - sampled
+    change = np.linalg.norm(result - sampled, axis=1, keepdims=True)
+    kept = np.exp(-(change / DETAIL_CHANGE) ** 2)
+    noise = 1.4826 * np.median(np.abs(d), axis=0) if len(d) else 0.0
+    shrunk = np.sign(d) * np.maximum(np.abs(d) - DETAIL_THRESHOLD * noise, 0.0)
+    return (result + strength * (kept * d + (1.0 - kept) * shrunk)).astype(result.dtype, copy=False)
 
 
 def bake_map(band, values, height, width):

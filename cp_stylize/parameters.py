@@ -19,7 +19,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "check_value"]
+           "DIRECTED_MODES", "NOISE_MAPPINGS", "check_value"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,6 +61,11 @@ RUN = {p.name: p for p in (
                                          "side of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
     Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
                                          "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
+    Parameter("noise_spread", "Spread", "Tone noise: how far from its own tone a point may pick its palette "
+                                        "colour, as a share of the tones", 0.0, 1.0, 0.1),
+    Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
+                                  "the result where the filter leaves it (1: a run that changes nothing gives "
+                                  "back the texture; 0: the grid's resolution)", 0.0, 1.0, 1.0),
 )}
 
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
@@ -130,6 +135,14 @@ DIRECTIONS = {
     "axis": ("Axis", "A direction in the object's space, projected onto the surface (falls back to the "
                      "texture where the surface faces it)"),
     "attribute": ("Attribute", "A vector attribute of the mesh (per point, corner or face)"),
+}
+
+#: How palette noise picks its colours: name -> (label, description), in the order the panel lists them.
+NOISE_MAPPINGS = {
+    "random": ("Random", "Any palette colour, by its weight, for the chosen share of points (the paper's "
+                         "recipe, for surfaces painted in the palette's colours)"),
+    "tone": ("By Tone", "The picture's tones mapped onto the palette, darks to its darks and lights to its "
+                        "lights; the chosen share of points picks a colour near its own tone (keeps the picture)"),
 }
 
 #: The modes whose strokes can follow a direction (:data:`DIRECTIONS`).

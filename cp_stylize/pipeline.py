@@ -9,7 +9,10 @@
    per-corner colours elsewhere).
 5. Optionally replace a fraction of the band points with palette colours.
 6. Diffuse on the surface.
-7. Bake the band's values into the atlas image.
+7. Bake the band's values into the atlas image, with the input's own detail
+   finer than the band laid back where the filter left it
+   (:func:`cp_stylize.baking.lay_detail`), every colour kept within the hull
+   of the input's colours (:class:`cp_stylize.colours.ColourHull`).
 """
 
 from __future__ import annotations
@@ -21,16 +24,17 @@ import typing
 import numpy as np
 
 from .atlas import UnusableUVs, uv_atlas
-from .baking import bake_to_atlas
+from .baking import Detail, bake_to_atlas
+from .colours import ColourHull
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
-from .noise import inject_noise
-from .sampling import sample_texture
+from .noise import inject_noise, tone_noise
+from .sampling import texture_at
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
-           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "stylize", "estimate",
+           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours", "stylize", "estimate",
            "estimate_run"]
 
 #: Every object is scaled so that its longest side is this long (the paper's scale).
@@ -167,16 +171,45 @@ def sample_colours(band, colours, channels=3):
     """Colour (N, channels) at the band's closest points from a :class:`ColourInput`."""
     if band.face is None:
         raise ValueError("the band was not built on a triangle mesh: it has no faces to read colours from")
-    values = np.zeros((band.size, channels), dtype=np.float32)
+    return colours_at(band.face, band.bary, colours, channels)
+
+
+def colours_at(face, bary, colours, channels=3):
+    """Colour (M, channels) of a :class:`ColourInput` at points of its mesh: input faces (M,), barycentrics (M, 3)."""
+    values = np.zeros((len(face), channels), dtype=np.float32)
     if colours.corner_colours is not None:
-        corners = np.asarray(colours.corner_colours, dtype=np.float32)[band.face, :, :channels]
-        values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", band.bary.astype(np.float32), corners)
+        corners = np.asarray(colours.corner_colours, dtype=np.float32)[face, :, :channels]
+        values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", np.asarray(bary, dtype=np.float32), corners)
     for texture in colours.textures:
         image, uvs, faces, wrap = Texture(*texture)
-        chosen = np.asarray(faces, dtype=bool)[band.face]
-        sampled = sample_texture(band, uvs, np.asarray(image, dtype=np.float32), wrap=wrap)[chosen]
+        chosen = np.asarray(faces, dtype=bool)[face]
+        sampled = texture_at(face[chosen], bary[chosen], uvs, np.asarray(image, dtype=np.float32), wrap=wrap)
         values[chosen, :min(channels, sampled.shape[1])] = sampled[:, :channels]
     return values
+
+
+def input_colours(colours, settings, channels=3):
+    """The colours a run is given (M, channels): its textures' texels, its corner colours and the palette.
+
+    Everything the band samples is a mix of these, so their hull holds every colour the input can make.
+    """
+    found = []
+    for texture in colours.textures:
+        image = np.asarray(Texture(*texture).image, dtype=np.float32)
+        image = image.reshape(-1, image.shape[-1] if image.ndim == 3 else 1)
+        found.append(np.pad(image[:, :channels], ((0, 0), (0, max(0, channels - image.shape[1])))))
+    if colours.corner_colours is not None:
+        corners = np.asarray(colours.corner_colours, dtype=np.float32)
+        corners = corners.reshape(-1, corners.shape[-1])[:, :channels]
+        found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
+    if settings.noise_on:
+        found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
+    covered = colours.corner_colours is not None or (
+        bool(colours.textures) and np.all(np.any([np.asarray(Texture(*t).faces, bool) for t in colours.textures], axis=0)))
+    clipped = any("clip" in Texture(*t).wrap for t in colours.textures)
+    if not covered or clipped:
+        found.append(np.zeros((1, channels), np.float32))      # faces that nothing colours, and CLIP, read black
+    return np.concatenate(found)
 
 
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
@@ -234,8 +267,12 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     lap("band")
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
     report(0.1)
-    values = sample_colours(band, colours)
-    if settings.noise_fraction > 0:
+    sampled = sample_colours(band, colours)
+    values = sampled
+    if settings.noise_mapping == "tone" and settings.noise_on:
+        values = tone_noise(values, settings.noise_fraction, settings.palette,
+                            weights=settings.palette_weights or None, spread=settings.noise_spread, seed=settings.seed)
+    elif settings.noise_fraction > 0:
         values = inject_noise(values, settings.noise_fraction, settings.palette,
                               weights=settings.palette_weights or None, seed=settings.seed)
     lap("bake_in")
@@ -244,7 +281,12 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme, field=field,
                      progress=lambda f: report(0.15 + 0.8 * f))
     lap("diffusion")
-    image = bake_to_atlas(band, result, atlas, margin=settings.margin)
+    detail = None
+    if settings.detail > 0:
+        # what the filter starts from: the sampled colours extended once, as every step extends
+        detail = Detail(band.extend(sampled), lambda face, bary: colours_at(face, bary, colours), settings.detail)
+    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail)
+    image = ColourHull(input_colours(colours, settings)).limit(image)
     lap("bake_out")
     report(1.0)
     return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,

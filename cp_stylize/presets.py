@@ -13,6 +13,7 @@ the extension)::
     mode = "ced"          # one of cp_stylize.MODES
     T = 1.1e-4            # stop time (object 2 units long)
     spacing = 0.008       # grid spacing (object 2 units long)
+    detail = 1.0          # optional: the texture's own detail, finer than the grid, laid back (0 to 1)
     direction = "min"     # optional, CED and Flow: what the strokes follow (cp_stylize.parameters.DIRECTIONS)
     axis = [0, 0, 1]      # direction "axis": the axis, in the object's space
     attribute = "flow"    # direction "attribute": the mesh's vector attribute (the add-on reads it)
@@ -22,6 +23,8 @@ the extension)::
 
     [noise]               # optional: replace a fraction of band points by palette colours
     fraction = 0.67
+    mapping = "tone"      # optional: "random" (the paper's) or "tone" (cp_stylize.parameters.NOISE_MAPPINGS)
+    spread = 0.1          # mapping "tone": the jitter of the tones
     seed = 1889
     palette = [["#0b1a3a", 6], ["#f3d54e", 1]]   # sRGB hex colour and relative weight
 """
@@ -34,7 +37,7 @@ import os
 import tomllib
 from collections.abc import Mapping
 
-from .parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, RUN, check_value
+from .parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, check_value
 
 __all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex"]
 
@@ -83,6 +86,9 @@ class StylizeSettings:
     spacing: float = 0.01
     params: Mapping = dataclasses.field(default_factory=dict)   # filter parameters set; the mode's defaults fill in
     noise_fraction: float = 0.0
+    noise_mapping: str = "random"   # see NOISE_MAPPINGS
+    noise_spread: float = 0.1
+    detail: float = 1.0             # the texture's own detail laid back (cp_stylize.baking.lay_detail)
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()
     seed: int = 0
@@ -106,7 +112,9 @@ class StylizeSettings:
         params = {name: FILTER_PARAMETERS[name].check(value) for name, value in self.params.items()
                   if value is not None}
         object.__setattr__(self, "params", _Params(params))
-        if self.noise_fraction > 0 and not self.palette:
+        if self.noise_mapping not in NOISE_MAPPINGS:
+            raise ValueError(f"noise mapping must be one of {list(NOISE_MAPPINGS)}, got {self.noise_mapping!r}")
+        if (self.noise_fraction > 0 or self.noise_mapping == "tone") and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
@@ -131,6 +139,11 @@ class StylizeSettings:
         object.__setattr__(self, "axis", axis)
         if not isinstance(self.attribute, str):
             raise ValueError(f"attribute must be an attribute's name, got {self.attribute!r}")
+
+    @property
+    def noise_on(self):
+        """Whether the run paints with the palette: random noise on some points, or tones mapped on all."""
+        return self.noise_fraction > 0 or (self.noise_mapping == "tone" and bool(self.palette))
 
     @property
     def stroke_direction(self):
@@ -185,7 +198,7 @@ def _hex(rgb):
 
 def settings_from_dict(data, *, source="preset"):
     """:class:`StylizeSettings` from a parsed preset table."""
-    known = {"name", "description", "mode", "T", "spacing", "direction", "axis", "attribute", "params", "noise",
+    known = {"name", "description", "mode", "T", "spacing", "detail", "direction", "axis", "attribute", "params", "noise",
              "output"}
     unknown = set(data) - known
     if unknown:
@@ -204,7 +217,9 @@ def settings_from_dict(data, *, source="preset"):
     try:
         return StylizeSettings(
             mode=data.get("mode", "ced"), T=data.get("T", 1e-4), spacing=data.get("spacing", 0.01),
+            detail=data.get("detail", 1.0),
             noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
+            noise_mapping=noise.get("mapping", "random"), noise_spread=noise.get("spread", 0.1),
             palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
             image_size=int(output.get("size", 1024)), margin=int(output.get("margin", 16)),
             direction=data.get("direction"), axis=tuple(data.get("axis", (0.0, 0.0, 1.0))),
@@ -246,7 +261,7 @@ def save_preset(settings, path):
     """Write ``settings`` as a preset TOML file that :func:`load_preset` reads back."""
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
              f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
-             f"spacing = {_toml_value(float(settings.spacing))}"]
+             f"spacing = {_toml_value(float(settings.spacing))}", f"detail = {_toml_value(float(settings.detail))}"]
     if settings.direction is not None:
         lines.append(f"direction = {_toml_value(settings.direction)}")
     if settings.axis != (0.0, 0.0, 1.0):
@@ -255,8 +270,10 @@ def save_preset(settings, path):
         lines.append(f"attribute = {_toml_value(settings.attribute)}")
     lines += ["", "[params]"]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in settings.params.items()]
-    if settings.noise_fraction > 0:
+    if settings.noise_on:
         lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
+                  f"mapping = {_toml_value(settings.noise_mapping)}",
+                  f"spread = {_toml_value(float(settings.noise_spread))}",
                   f"seed = {int(settings.seed)}", "palette = ["]
         weights = settings.palette_weights or (1.0,) * len(settings.palette)
         lines += [f'  ["{_hex(c)}", {_toml_value(float(w))}],' for c, w in zip(settings.palette, weights)]

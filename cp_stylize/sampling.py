@@ -21,7 +21,7 @@ import numpy as np
 from .arrays import check_uvs
 from .texture import bilinear, check_image
 
-__all__ = ["sample_texture", "sample_map"]
+__all__ = ["sample_texture", "texture_at", "sample_map"]
 
 
 def sample_texture(band, uvs, image, *, wrap=("repeat", "repeat")):
@@ -49,6 +49,14 @@ def sample_texture(band, uvs, image, *, wrap=("repeat", "repeat")):
     if face is None or bary is None:
         raise ValueError(f"the band must be built from a triangle mesh (it needs face and bary), got {band!r}")
     n_faces = getattr(band.surface, "n_input_faces", None)
+    return texture_at(face, bary, uvs, image, wrap=wrap, n_faces=n_faces)
+
+
+def texture_at(face, bary, uvs, image, *, wrap=("repeat", "repeat"), n_faces=None):
+    """Image values at surface points given by their face (M,) and barycentric coordinates (M, 3).
+
+    The lookup of :func:`sample_texture` for any points of the mesh (the bake-out's texels, for one).
+    """
     uvs = np.asarray(uvs)
     if n_faces is None:
         n_faces = len(uvs)

@@ -5,7 +5,7 @@ that its peak memory is its own):
 
 1. ``torus``: edge-enhancing diffusion of noisy grey stripes on a torus with
    the paper's Fig. 4 parameters, h = 0.0125, 30 steps;
-2. ``suzanne``: the Starry Night preset on Suzanne with two subdivision
+2. ``suzanne``: the Starry Night (Paper) preset on Suzanne with two subdivision
    levels (the demo's textured object, read through Blender's Python module),
    normalised to length 2, h = 0.008, RGB, a 1024 x 1024 atlas.
 
@@ -117,7 +117,7 @@ def run_suzanne(scheme, quick, data):
 
     size = SIZES["suzanne"]["quick" if quick else "full"]
     arrays = np.load(data)
-    settings = load_preset("starry_night")
+    settings = load_preset("starry_night_paper")
     if size["h"] != settings.spacing:  # the same number of steps, and the same kernels in grid spacings
         scale = (size["h"] / settings.spacing) ** 2
         settings = settings.replace(T=settings.T * scale, sigma=settings.sigma * scale, rho=settings.rho * scale)

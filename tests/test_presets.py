@@ -3,7 +3,7 @@ import pytest
 
 from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, parse_hex, save_preset
 
-REQUIRED = {"starry_night", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur",
+REQUIRED = {"starry_night", "starry_night_paper", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur",
             "hatching", "van_gogh_form"}
 
 
@@ -15,10 +15,10 @@ def test_every_shipped_preset_loads():
         assert settings.name and settings.description
 
 
-def test_starry_night_follows_the_paper():
-    s = load_preset("starry_night")
+def test_starry_night_paper_follows_the_paper():
+    s = load_preset("starry_night_paper")
     assert (s.mode, s.sigma, s.rho, s.alpha, s.b_rel, s.spacing) == ("ced", 1e-4, 5e-4, 1e-3, 1e-6, 0.008)
-    assert s.noise_fraction == pytest.approx(0.67)
+    assert s.noise_fraction == pytest.approx(0.67) and s.noise_mapping == "random"
     # about ten steps of the paper's 0.15 h^2
     assert 9 <= s.T / (0.15 * s.spacing**2) <= 12
     # mostly dark blues: blue dominates and the colours are dark in most of the weight
@@ -26,6 +26,13 @@ def test_starry_night_follows_the_paper():
     dark_blue = (rgb[:, 2] > rgb[:, 0]) & (rgb.mean(axis=1) < 0.45)
     assert w[dark_blue].sum() > 0.6 * w.sum()
     assert any(r > 0.9 and g > 0.7 and b < 0.4 for r, g, b in rgb)  # a star yellow
+
+
+def test_starry_night_maps_the_pictures_tones_with_long_coherent_strokes():
+    s, paper = load_preset("starry_night"), load_preset("starry_night_paper")
+    assert (s.mode, s.noise_mapping, s.detail) == ("ced", "tone", 0.0)
+    assert s.rho >= 4 * paper.rho and s.T >= 3 * paper.T          # wider orientation, longer strokes
+    assert set(s.palette) <= set(paper.palette)                    # the painting's colours
 
 
 def test_the_looks_along_the_form_follow_the_minimum_curvature():
@@ -43,6 +50,7 @@ def test_save_and_load_round_trip(tmp_path):
     assert back.T == s.T and back.image_size == 2048 and back.mode == s.mode
     np.testing.assert_allclose(back.palette, s.palette, atol=1 / 255)
     assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
+    assert (back.noise_mapping, back.noise_spread, back.detail) == (s.noise_mapping, s.noise_spread, s.detail)
 
 
 def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_path):
@@ -73,6 +81,10 @@ def test_settings_scale_with_the_object():
     ('mode = "flow"\ndirection = "texture"', "mode 'flow' draws along a direction field"),
     ('mode = "ced"\naxis = [0, 0, 0]', "axis must be three finite numbers, not all zero"),
     ('mode = "ced"\naxis = [1, 2]', "axis must be three finite numbers"),
+    ('mode = "ced"\ndetail = 1.5', r"detail must lie in \[0, 1\], got 1.5"),
+    ('mode = "ced"\n[noise]\nmapping = "hue"\npalette = ["#102040"]', "noise mapping must be one of"),
+    ('mode = "ced"\n[noise]\nmapping = "tone"', "noise needs a palette"),
+    ('mode = "ced"\n[noise]\nmapping = "tone"\nspread = -1\npalette = ["#102040"]', r"noise_spread must lie in \[0, 1\], got -1"),
 ])
 def test_bad_presets_are_reported(tmp_path, text, message):
     path = tmp_path / "bad.toml"

@@ -90,6 +90,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         col.prop(settings, "time")
         for parameter in FILTERS[settings.mode].parameters:
             col.prop(settings, filter_property(settings.mode, parameter.name))
+        layout.prop(settings, "detail")
 
 
 class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
@@ -100,7 +101,10 @@ class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.cp_stylize
         layout = _split(self.layout)
+        layout.prop(settings, "noise_mapping")
         layout.prop(settings, "noise_fraction")
+        if settings.noise_mapping == "tone":
+            layout.prop(settings, "noise_spread")
         layout.prop(settings, "seed")
         for index, item in enumerate(settings.palette):
             row = layout.row(align=True)

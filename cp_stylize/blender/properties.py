@@ -14,7 +14,7 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, RUN
+from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN
 
 #: Grid spacing relative to an object whose longest side is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
@@ -88,6 +88,10 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         default="PREVIEW",
     )
     palette: bpy.props.CollectionProperty(type=CPStylizePaletteColour)
+    noise_mapping: bpy.props.EnumProperty(
+        name="Colours", description="How the noise picks its palette colours",
+        items=[(name, label, description) for name, (label, description) in NOISE_MAPPINGS.items()],
+        default="random")
     seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise", default=0, min=0)
     image_size: bpy.props.EnumProperty(
         name="Image Size", items=[(s, s, f"{s} x {s} pixels") for s in ("512", "1024", "2048", "4096")],
@@ -132,6 +136,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         used = {"axis": {"axis": tuple(self.axis)}, "attribute": {"attribute": self.direction_attribute}}
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
+            detail=self.detail, noise_mapping=self.noise_mapping, noise_spread=self.noise_spread,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, params=params,
@@ -158,6 +163,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         self.axis = settings.axis
         self.direction_attribute = settings.attribute
         self.noise_fraction = settings.noise_fraction
+        self.detail = settings.detail
+        self.noise_mapping = settings.noise_mapping
+        self.noise_spread = settings.noise_spread
         self.seed = settings.seed
         self.palette.clear()
         weights = settings.palette_weights or (1.0,) * len(settings.palette)
@@ -168,7 +176,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
 for _parameter in RUN.values():
     CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _float_property(
-        _parameter, **({"subtype": "FACTOR"} if _parameter.name == "noise_fraction" else {}))
+        _parameter, **({"subtype": "FACTOR"} if _parameter.name in ("noise_fraction", "noise_spread", "detail") else {}))
 for _mode, _filter in FILTERS.items():
     for _parameter in _filter.parameters:
         CPStylizeSettings.__annotations__[filter_property(_mode, _parameter.name)] = _float_property(

@@ -1,0 +1,125 @@
+"""What the bake-out promises whatever the filter: the input back where nothing changed, colours
+within the input's, and a denoiser that beats the noise; and the painterly presets' tone mapping."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from cp_stylize import Torus
+from cp_stylize.baking import lay_detail
+from cp_stylize.colours import TOLERANCE
+from cp_stylize.mesh import parametric_mesh
+from cp_stylize.noise import LUMA, tone_noise
+from cp_stylize.pipeline import ColourInput, Texture, stylize
+from cp_stylize.presets import StylizeSettings, load_preset
+
+SIZE = 128
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return parametric_mesh(Torus(1.0, 0.45).point, 64, 32, periodic_u=True, periodic_v=True)
+
+
+def _picture(size=SIZE):
+    """A picture with detail finer than a coarse band: blobs, sharp-edged discs and fine stripes."""
+    rng = np.random.default_rng(3)
+    v, u = np.mgrid[0:size, 0:size] / size
+    base = ndimage.gaussian_filter(rng.random((size, size, 3)), (4, 4, 0), mode="wrap")
+    base = (base - base.min()) / (base.max() - base.min())
+    discs = ((np.sin(2 * np.pi * 3 * u) * np.sin(2 * np.pi * 2 * v)) > 0.4)[..., None]
+    stripes = 0.15 * (np.sin(2 * np.pi * 24 * u) > 0)[..., None]
+    return np.clip(0.2 + 0.5 * base * 0.6 + 0.3 * discs + stripes, 0, 1).astype(np.float32)
+
+
+def _run(torus, image, settings):
+    vertices, faces, uvs = torus
+    colours = ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool))])
+    result = stylize(vertices, faces, colours, settings.replace(image_size=SIZE), uvs=uvs)
+    covered = result.atlas.coverage.reshape(SIZE, SIZE)
+    return result.image, covered
+
+
+def _psnr(a, b):
+    return 10 * np.log10(1.0 / np.mean((np.asarray(a, np.float64) - b) ** 2))
+
+
+def test_a_run_that_changes_nothing_gives_back_the_texture(torus):
+    picture = _picture()
+    near_zero = StylizeSettings(mode="eed", T=1e-6, spacing=0.04)
+    out, covered = _run(torus, picture, near_zero)
+    kept = _psnr(out[covered], picture[covered])
+    coarse, _ = _run(torus, picture, near_zero.replace(detail=0.0))
+    band_only = _psnr(coarse[covered], picture[covered])
+    print(f"\ntime ~0: {kept:.1f} dB with the detail, {band_only:.1f} dB at the band's resolution")
+    assert kept >= 45.0 and band_only < 35.0
+
+
+def test_no_colour_outside_the_inputs_hull(torus):
+    # two colours with a sharp edge: tricubic overshoot would leave their segment
+    red, teal = np.array([0.85, 0.15, 0.1]), np.array([0.1, 0.55, 0.6])
+    v, u = np.mgrid[0:SIZE, 0:SIZE] / SIZE
+    half = ((np.sin(2 * np.pi * 3 * u) * np.sin(2 * np.pi * 2 * v)) > 0)[..., None]
+    image = np.where(half, red, teal).astype(np.float32)
+    for mode in ("eed", "ced"):
+        out, covered = _run(torus, image, StylizeSettings(mode=mode, T=5e-4, spacing=0.04))
+        colours = out[covered].astype(np.float64)
+        s = (colours - red) @ (teal - red) / np.dot(teal - red, teal - red)
+        off = np.linalg.norm(colours - (red + np.clip(s, 0, 1)[:, None] * (teal - red)), axis=1)
+        assert off.max() <= 2 * TOLERANCE, mode
+        assert np.ptp(s) > 0.9                      # both colours are still there
+
+
+def test_denoising_beats_the_noise(torus):
+    picture = _picture()
+    noisy = np.clip(picture + np.random.default_rng(7).normal(0, 0.1, picture.shape), 0, 1).astype(np.float32)
+    out, covered = _run(torus, noisy, load_preset("denoise_eed").replace(spacing=0.02))
+    before, after = _psnr(noisy[covered], picture[covered]), _psnr(out[covered], picture[covered])
+    print(f"\nnoisy {before:.2f} dB, Denoise (EED) {after:.2f} dB")
+    assert after >= before + 3.0
+
+
+def test_lay_detail_keeps_the_original_where_nothing_changed_and_drops_noise_where_it_did():
+    rng = np.random.default_rng(0)
+    sampled = rng.random((1000, 3)).astype(np.float32)
+    original = sampled + rng.normal(0, 0.05, sampled.shape).astype(np.float32)
+    np.testing.assert_allclose(lay_detail(sampled, sampled, original), original, atol=1e-6)
+    changed = sampled + 0.2
+    out = lay_detail(changed, sampled, original)
+    # small detail (the noise) is shrunk towards the changed result
+    assert np.mean(np.abs(out - changed)) < 0.5 * np.mean(np.abs(original - sampled))
+    np.testing.assert_array_equal(lay_detail(changed, sampled, original, 0.0), changed)
+
+
+def test_tone_noise_maps_the_tones_onto_the_palette_in_order():
+    palette = np.array([[0.9, 0.8, 0.3], [0.05, 0.1, 0.25], [0.2, 0.35, 0.7]])   # light, dark, mid
+    weights = [1, 2, 1]
+    grey = np.linspace(0, 1, 4000)[:, None].repeat(3, axis=1)
+    out = tone_noise(grey, 0.0, palette, weights=weights)
+    tone = out @ LUMA
+    assert np.all(np.diff(tone) >= 0)                              # darker input, darker colour
+    share = [np.mean(np.all(out == c, axis=1)) for c in palette]
+    np.testing.assert_allclose(share, [0.25, 0.5, 0.25], atol=0.01)  # each colour its weight of the tones
+    # a flat input takes one colour, not the whole palette
+    flat = tone_noise(np.full((100, 3), 0.4), 0.0, palette, weights=weights)
+    assert len(np.unique(flat, axis=0)) == 1
+    # the jitter picks neighbours of the own tone only
+    jittered = tone_noise(grey, 1.0, palette, weights=weights, spread=0.05, seed=1)
+    assert 0.05 < np.mean(np.any(jittered != out, axis=1)) < 0.3
+    with pytest.raises(ValueError, match="spread must lie in"):
+        tone_noise(grey, 0.5, palette, spread=2.0)
+
+
+def test_starry_night_keeps_the_picture_in_the_palette(torus):
+    picture = _picture()
+    settings = load_preset("starry_night").replace(spacing=0.04, T=4e-4)
+    out, covered = _run(torus, picture, settings)
+    palette = np.array(settings.palette)
+    lum = lambda img: ndimage.gaussian_filter(img @ LUMA, 3)
+    corr = np.corrcoef(lum(out)[covered], lum(picture)[covered])[0, 1]
+    nearest = np.min(np.linalg.norm(out[covered][:, None] - palette[None], axis=2), axis=1)
+    print(f"\nluminance correlation {corr:.2f}, distance to the palette {np.median(nearest):.3f}")
+    assert corr > 0.6
+    assert np.median(nearest) < 0.15                      # the palette's colours, mixed along strokes
+    paper, _ = _run(torus, picture, load_preset("starry_night_paper").replace(spacing=0.04))
+    assert np.corrcoef(lum(paper)[covered], lum(picture)[covered])[0, 1] < corr
