@@ -34,8 +34,8 @@ from .noise import inject_noise, tone_noise
 from .sampling import texture_at
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
-           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours", "stylize", "estimate",
-           "estimate_run"]
+           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours",
+           "stylize", "estimate", "estimate_run"]
 
 #: Every object is scaled so that its longest side is this long (the paper's scale).
 NORMAL_LENGTH = 2.0
@@ -269,7 +269,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     report(0.1)
     sampled = sample_colours(band, colours)
     values = sampled
-    if settings.noise_mapping == "tone" and settings.noise_on:
+    if settings.noise_mapping == "tone":
         values = tone_noise(values, settings.noise_fraction, settings.palette,
                             weights=settings.palette_weights or None, spread=settings.noise_spread, seed=settings.seed)
     elif settings.noise_fraction > 0:

@@ -142,8 +142,9 @@ class StylizeSettings:
 
     @property
     def noise_on(self):
-        """Whether the run paints with the palette: random noise on some points, or tones mapped on all."""
-        return self.noise_fraction > 0 or (self.noise_mapping == "tone" and bool(self.palette))
+        """Whether the run paints with the palette: random noise on some points, or tones mapped on all
+        (either needs a palette, which the checks ask for)."""
+        return self.noise_fraction > 0 or self.noise_mapping == "tone"
 
     @property
     def stroke_direction(self):

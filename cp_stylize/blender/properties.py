@@ -19,6 +19,9 @@ from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS,
 #: Grid spacing relative to an object whose longest side is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
+#: Run parameters shown as sliders (shares from 0 to 1).
+FACTORS = ("noise_fraction", "noise_spread", "detail")
+
 #: Property names that differ from the core's parameter names.
 PROPERTY_NAMES = {"T": "time"}
 
@@ -176,7 +179,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
 for _parameter in RUN.values():
     CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _float_property(
-        _parameter, **({"subtype": "FACTOR"} if _parameter.name in ("noise_fraction", "noise_spread", "detail") else {}))
+        _parameter, **({"subtype": "FACTOR"} if _parameter.name in FACTORS else {}))
 for _mode, _filter in FILTERS.items():
     for _parameter in _filter.parameters:
         CPStylizeSettings.__annotations__[filter_property(_mode, _parameter.name)] = _float_property(
