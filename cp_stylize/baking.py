@@ -75,7 +75,7 @@ def _closest_in_triangle_2d(q, a, b, c):
     return np.where(inside[:, None], q, nearest)
 
 
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None):
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None):
     """Image of band values laid out on a UV atlas.
 
     Parameters
@@ -95,6 +95,10 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None):
         Lay the input's own detail, finer than the band, back over the
         result where the filter left it (:func:`lay_detail`): a run that
         changes nothing then gives back the input's colours texel for texel.
+    strokes : callable, optional
+        ``strokes(points, colours)``: the texels' colours (M, C) with brush
+        strokes laid over them at their surface points (M, 3), last
+        (:class:`cp_stylize.strokes.Strokes`).
 
     Returns
     -------
@@ -143,6 +147,8 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None):
     if detail is not None:
         original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
         found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
+    if strokes is not None:
+        found = strokes(points, found)
     image = np.full((size * size, channels), fill, dtype=values.dtype)
     image[texels] = found
     return image.reshape(size, size, channels)

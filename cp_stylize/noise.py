@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import rankdata
 
-__all__ = ["inject_noise", "tone_noise", "LUMA"]
+__all__ = ["palette_by_tone", "inject_noise", "tone_noise", "LUMA"]
 
 #: Rec. 709 weights of a colour's tone (on the sRGB-encoded values: the tone as seen).
 LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -105,12 +105,19 @@ def tone_noise(values, fraction, palette, *, weights=None, spread=0.1, seed=0):
         raise ValueError(f"tone noise needs colours of 3 channels or more, got {values.shape[1]}")
     if not 0.0 <= spread <= 1.0:
         raise ValueError(f"spread must lie in [0, 1], got {spread!r}")
-    p = np.full(len(palette), 1.0 / len(palette)) if p is None else p
-    order = np.argsort(palette[:, :3].astype(np.float64) @ LUMA, kind="stable")
-    bounds = np.cumsum(p[order])[:-1]
     tone = values[:, :3].astype(np.float64) @ LUMA
     rank = (rankdata(tone) - 0.5) / len(values)           # equal tones share their mean rank
     rng = np.random.default_rng(seed)
     chosen = rng.random(len(values)) < fraction
     rank[chosen] += spread * rng.standard_normal(int(chosen.sum()))
+    return palette_by_tone(rank, palette, p)
+
+
+def palette_by_tone(rank, palette, weights=None):
+    """The palette colour (M, C) for each tone rank (M,) in [0, 1] (clipped): the colours sorted by
+    tone, darkest first, each taking its ``weights`` share (uniform by default) of the ranks."""
+    palette = np.asarray(palette)
+    p = np.full(len(palette), 1.0 / len(palette)) if weights is None else np.asarray(weights, dtype=np.float64)
+    order = np.argsort(palette[:, :3].astype(np.float64) @ LUMA, kind="stable")
+    bounds = np.cumsum(p[order] / p.sum())[:-1]
     return palette[order[np.searchsorted(bounds, np.clip(rank, 0.0, 1.0), side="right")]]

@@ -66,6 +66,13 @@ RUN = {p.name: p for p in (
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution)", 0.0, 1.0, 1.0),
+    Parameter("strokes", "Strokes", "Brush strokes at the texture's resolution, drawn along the result's flow in "
+                                    "the palette's colours, this strong (0: none; needs a palette)", 0.0, 1.0, 0.0),
+    Parameter("stroke_length", "Stroke Length", "Length of the brush strokes (object normalised to a longest "
+                                                "side of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
+    Parameter("stroke_width", "Stroke Width", "Width of the brush strokes (object normalised to a longest side "
+                                              "of 2); finer than a texel they blur", 0.001, 0.1, 0.01, "length",
+              precision=4, step=0.1),
 )}
 
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).

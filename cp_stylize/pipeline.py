@@ -30,7 +30,8 @@ from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
 from .mesh import TriangleMesh
-from .noise import inject_noise, tone_noise
+from .noise import LUMA, inject_noise, tone_noise
+from .strokes import Strokes, line_field, streak_steps
 from .sampling import texture_at
 
 __all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
@@ -43,6 +44,9 @@ NORMAL_LENGTH = 2.0
 #: Heat flow time, in h^2, that evens out the shape operator of a mesh before its principal
 #: directions are taken (the interpolated normals bend face by face).
 CURVATURE_SMOOTHING = 4.0
+#: The brush strokes follow the result's structure integrated over this time per squared stroke
+#: length (0.5: a deviation of one stroke length), so that they bend no tighter than they are long.
+STROKE_FIELD = 0.5
 
 
 def normalisation(vertices, faces):
@@ -285,7 +289,13 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     if settings.detail > 0:
         # what the filter starts from: the sampled colours extended once, as every step extends
         detail = Detail(band.extend(sampled), lambda face, bary: colours_at(face, bary, colours), settings.detail)
-    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail)
+    strokes = None
+    if settings.strokes > 0:
+        strokes = Strokes(band, line_field(band, result, STROKE_FIELD * settings.stroke_length**2),
+                          result[band.inner, :3].astype(np.float64) @ LUMA, settings.palette,
+                          settings.palette_weights or None, strength=settings.strokes, length=settings.stroke_length,
+                          width=settings.stroke_width, spread=settings.noise_spread, seed=settings.seed)
+    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes)
     image = ColourHull(input_colours(colours, settings)).limit(image)
     lap("bake_out")
     report(1.0)
@@ -302,6 +312,12 @@ SECONDS_STEP_PER_POINT = 4e-8
 #: ... and per band point for one rebuild of the diffusion tensor (about every other step).
 SECONDS_TENSOR_PER_POINT = 3e-7
 
+#: Brush strokes: seconds per texel and step of its streak, per band point for their line field,
+#: and the share of an atlas's texels that are baked (islands and margin).
+SECONDS_STROKE_STEP = 2.5e-7
+SECONDS_STROKE_FIELD_PER_POINT = 2e-6
+BAKED_SHARE = 0.6
+
 #: Peak memory of a colour run, in bytes a band point: matrices (E: 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes), geometry, tensor fields, work arrays.
 BYTES_PER_BAND_POINT = 1600
@@ -317,7 +333,12 @@ def estimate_run(n_points, settings, channels=3):
     per_point += steps * channels * SECONDS_STEP_PER_POINT
     if settings.mode != "gaussian":
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
-    return n_points * per_point, n_points * BYTES_PER_BAND_POINT
+    seconds = n_points * per_point
+    if settings.strokes > 0:
+        texels = BAKED_SHARE * settings.image_size ** 2
+        seconds += texels * 2 * streak_steps(settings.stroke_length, settings.stroke_width) * SECONDS_STROKE_STEP
+        seconds += n_points * SECONDS_STROKE_FIELD_PER_POINT
+    return seconds, n_points * BYTES_PER_BAND_POINT
 
 
 @dataclasses.dataclass(frozen=True)

@@ -21,6 +21,11 @@ the extension)::
     [params]              # sigma, rho, alpha, b_rel, lambda_rel (see diffuse)
     sigma = 1e-4
 
+    [strokes]             # optional: brush strokes in the palette's colours (cp_stylize.strokes)
+    strength = 1.0
+    length = 0.1          # object 2 units long
+    width = 0.01
+
     [noise]               # optional: replace a fraction of band points by palette colours
     fraction = 0.67
     mapping = "tone"      # optional: "random" (the paper's) or "tone" (cp_stylize.parameters.NOISE_MAPPINGS)
@@ -89,6 +94,9 @@ class StylizeSettings:
     noise_mapping: str = "random"   # see NOISE_MAPPINGS
     noise_spread: float = 0.1
     detail: float = 1.0             # the texture's own detail laid back (cp_stylize.baking.lay_detail)
+    strokes: float = 0.0            # brush strokes over the result (cp_stylize.strokes)
+    stroke_length: float = 0.1
+    stroke_width: float = 0.01
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()
     seed: int = 0
@@ -116,6 +124,8 @@ class StylizeSettings:
             raise ValueError(f"noise mapping must be one of {list(NOISE_MAPPINGS)}, got {self.noise_mapping!r}")
         if (self.noise_fraction > 0 or self.noise_mapping == "tone") and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
+        if self.strokes > 0 and not self.palette:
+            raise ValueError("strokes are drawn in a palette's colours: they need a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
         check_value("image size", self.image_size, *IMAGE_SIZES)
@@ -200,7 +210,7 @@ def _hex(rgb):
 def settings_from_dict(data, *, source="preset"):
     """:class:`StylizeSettings` from a parsed preset table."""
     known = {"name", "description", "mode", "T", "spacing", "detail", "direction", "axis", "attribute", "params", "noise",
-             "output"}
+             "strokes", "output"}
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}")
@@ -215,10 +225,15 @@ def settings_from_dict(data, *, source="preset"):
         palette.append(parse_hex(colour))
         weights.append(float(weight))
     output = dict(data.get("output", {}))
+    strokes = dict(data.get("strokes", {}))
+    unknown = set(strokes) - {"strength", "length", "width"}
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)} in [strokes]; known: strength, length, width")
     try:
         return StylizeSettings(
             mode=data.get("mode", "ced"), T=data.get("T", 1e-4), spacing=data.get("spacing", 0.01),
-            detail=data.get("detail", 1.0),
+            detail=data.get("detail", 1.0), strokes=strokes.get("strength", 0.0),
+            stroke_length=strokes.get("length", 0.1), stroke_width=strokes.get("width", 0.01),
             noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
             noise_mapping=noise.get("mapping", "random"), noise_spread=noise.get("spread", 0.1),
             palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
@@ -279,6 +294,10 @@ def save_preset(settings, path):
         weights = settings.palette_weights or (1.0,) * len(settings.palette)
         lines += [f'  ["{_hex(c)}", {_toml_value(float(w))}],' for c, w in zip(settings.palette, weights)]
         lines += ["]"]
+    if settings.strokes > 0:
+        lines += ["", "[strokes]", f"strength = {_toml_value(float(settings.strokes))}",
+                  f"length = {_toml_value(float(settings.stroke_length))}",
+                  f"width = {_toml_value(float(settings.stroke_width))}"]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(lines))

@@ -54,11 +54,15 @@ def test_starry_night_noise_brings_the_palette(torus_mesh):
 
 
 def test_estimate_grows_with_the_grid_and_the_filter():
-    ced = load_preset("starry_night")
+    ced = load_preset("starry_night").replace(strokes=0.0)
     s1, b1 = estimate_run(100_000, ced)
     s2, b2 = estimate_run(100_000, ced.replace(spacing=ced.spacing / 2))
     gauss, _ = estimate_run(100_000, ced.replace(mode="gaussian"))
     assert b1 == b2 and s2 > 1.5 * s1 and gauss < 0.7 * s1  # four times the steps; no tensor
+    # brush strokes cost by the texel and the streak's step
+    painted, _ = estimate_run(100_000, ced.replace(strokes=1.0))
+    larger, _ = estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048))
+    assert s1 < painted < larger
 
 
 def test_a_flat_mesh_is_reported():

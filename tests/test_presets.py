@@ -51,6 +51,7 @@ def test_save_and_load_round_trip(tmp_path):
     np.testing.assert_allclose(back.palette, s.palette, atol=1 / 255)
     assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
     assert (back.noise_mapping, back.noise_spread, back.detail) == (s.noise_mapping, s.noise_spread, s.detail)
+    assert (back.strokes, back.stroke_length, back.stroke_width) == (1.0, 0.2, 0.008)    # starry_night's [strokes]
 
 
 def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_path):
@@ -85,6 +86,9 @@ def test_settings_scale_with_the_object():
     ('mode = "ced"\n[noise]\nmapping = "hue"\npalette = ["#102040"]', "noise mapping must be one of"),
     ('mode = "ced"\n[noise]\nmapping = "tone"', "noise needs a palette"),
     ('mode = "ced"\n[noise]\nmapping = "tone"\nspread = -1\npalette = ["#102040"]', r"noise_spread must lie in \[0, 1\], got -1"),
+    ('mode = "ced"\n[strokes]\nstrength = 1', "strokes are drawn in a palette's colours: they need a palette"),
+    ('mode = "ced"\n[strokes]\nlenght = 0.1', r"unknown key\(s\) \['lenght'\] in \[strokes\]"),
+    ('mode = "ced"\n[strokes]\nwidth = 0.5\n[noise]\npalette = ["#102040"]', r"stroke_width must lie in \[0.001, 0.1\], got 0.5"),
 ])
 def test_bad_presets_are_reported(tmp_path, text, message):
     path = tmp_path / "bad.toml"

@@ -106,6 +106,10 @@ class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
         if settings.noise_mapping == "tone":
             layout.prop(settings, "noise_spread")
         layout.prop(settings, "seed")
+        layout.prop(settings, "strokes")
+        if settings.strokes > 0:
+            layout.prop(settings, "stroke_length")
+            layout.prop(settings, "stroke_width")
         for index, item in enumerate(settings.palette):
             row = layout.row(align=True)
             row.prop(item, "colour", text="")

@@ -20,7 +20,7 @@ from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS,
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
 #: Run parameters shown as sliders (shares from 0 to 1).
-FACTORS = ("noise_fraction", "noise_spread", "detail")
+FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes")
 
 #: Property names that differ from the core's parameter names.
 PROPERTY_NAMES = {"T": "time"}
@@ -140,6 +140,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             detail=self.detail, noise_mapping=self.noise_mapping, noise_spread=self.noise_spread,
+            strokes=self.strokes, stroke_length=self.stroke_length, stroke_width=self.stroke_width,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, params=params,
@@ -169,6 +170,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         self.detail = settings.detail
         self.noise_mapping = settings.noise_mapping
         self.noise_spread = settings.noise_spread
+        self.strokes = settings.strokes
+        self.stroke_length = settings.stroke_length
+        self.stroke_width = settings.stroke_width
         self.seed = settings.seed
         self.palette.clear()
         weights = settings.palette_weights or (1.0,) * len(settings.palette)

@@ -118,6 +118,7 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
     assert registered.mode == "ced" and registered.b_rel == pytest.approx(1e-6) and len(registered.palette) == 10
     assert (registered.noise_mapping, registered.detail) == ("tone", 0.0)
+    assert (registered.strokes, registered.stroke_length) == (1.0, pytest.approx(0.2))
     assert registered.quality == "STANDARD"  # the preset's spacing, 0.008
     registered.time = 3e-4
     assert bpy.ops.cp_stylize.preset_add(name="My Look") == {"FINISHED"}
@@ -126,6 +127,7 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
     assert bpy.ops.cp_stylize.preset_load(name="my_look") == {"FINISHED"}
     assert registered.time == pytest.approx(3e-4) and registered.mode == "ced"
     assert (registered.noise_mapping, registered.detail) == ("tone", 0.0)     # saved and loaded back
+    assert registered.to_settings().stroke_width == pytest.approx(0.008)
     with pytest.raises(RuntimeError, match="not a user preset"):
         bpy.ops.cp_stylize.preset_remove(name="starry_night")
     assert bpy.ops.cp_stylize.preset_remove(name="my_look") == {"FINISHED"}
