@@ -14,6 +14,7 @@ Images are float arrays (H, W, C), row 0 at the bottom (see :mod:`~cp_stylize.te
 
 from __future__ import annotations
 
+import threading
 import typing
 
 import numpy as np
@@ -21,6 +22,7 @@ from scipy import ndimage
 
 from .arrays import count
 from .atlas import Atlas, check_mesh
+from .sparse import map_parallel
 from .texture import texel_centres
 
 __all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail"]
@@ -75,7 +77,7 @@ def _closest_in_triangle_2d(q, a, b, c):
     return np.where(inside[:, None], q, nearest)
 
 
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None):
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None, progress=None):
     """Image of band values laid out on a UV atlas.
 
     Parameters
@@ -139,16 +141,25 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     texels, points, faces, barys = atlas_points(mesh, atlas, margin)
     size = atlas.size
     found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
-    for s in range(0, len(points), _POINTS):
+    report = progress or (lambda fraction: None)
+    share = 1.0 if strokes is None else 0.5          # of the progress, for the interpolation
+    done, lock = [0], threading.Lock()
+
+    def interpolate(s):
         part = slice(s, s + _POINTS)
         out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
                                mesh.piece[faces[part]])
         found[part] = out.reshape(len(out), -1)
+        with lock:                                   # in order, whichever worker finishes
+            done[0] += len(out)
+            report(share * done[0] / len(points))
+
+    map_parallel(interpolate, range(0, len(points), _POINTS))
     if detail is not None:
         original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
         found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
     if strokes is not None:
-        found = strokes(points, found)
+        found = strokes(points, found, progress=lambda fraction: report(share + (1.0 - share) * fraction))
     image = np.full((size * size, channels), fill, dtype=values.dtype)
     image[texels] = found
     return image.reshape(size, size, channels)
@@ -165,7 +176,11 @@ def atlas_points(mesh, atlas, margin):
     size = atlas.size
     corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
     texels = [atlas.texels]
-    points = [np.einsum("mi,mij->mj", atlas.bary, corners[mesh.kept_index(atlas.face)])]
+    points = [np.empty((len(atlas.texels), 3))]
+    kept = mesh.kept_index(atlas.face)
+    for s in range(0, len(kept), _POINTS):         # in blocks: no (M, 3, 3) corners at once
+        part = slice(s, s + _POINTS)
+        points[0][part] = np.einsum("mi,mij->mj", atlas.bary[part], corners[kept[part]])
     faces, barys = [atlas.face], [atlas.bary]          # which sheet each point is on (Band._one_sheet)
 
     covered = atlas.coverage

@@ -190,6 +190,7 @@ class Band:
         self._matrices = {}
         self._stencil_table = None
         self.normals, self.pieces = _sheet_keys(surface, self.cp, self.face, self.bary)
+        self._normal_columns = None
         moved = []
         self.E = self._interpolation_matrix(self.cp, np.float32, self.normals, self.pieces, moved)
         #: band points whose extension keeps to their own sheet with trilinear weights (see :meth:`_one_sheet`)
@@ -345,9 +346,14 @@ class Band:
         """Whether the band points ``nodes`` (M, K; -1 for none) lie on another sheet than the surface
         points ``x`` (M, 3) with ``normals`` (and ``pieces``): (M, K) bool.  See :meth:`_one_sheet`."""
         safe = np.maximum(nodes, 0)
-        facing = np.empty(safe.shape, dtype=bool)
-        for k in range(safe.shape[1]):          # one stencil slot at a time: no (M, K, 3) temporaries
-            facing[:, k] = np.einsum("ij,ij->i", normals, self.normals[safe[:, k]]) < 0.0
+        if self._normal_columns is None:
+            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
+        nx, ny, nz = self._normal_columns      # single precision, by component: (M, K) gathers only
+        q = np.asarray(normals, dtype=np.float32)
+        dot = nx[safe] * q[:, 0:1]
+        dot += ny[safe] * q[:, 1:2]
+        dot += nz[safe] * q[:, 2:3]
+        facing = dot < 0.0
         other = np.zeros(safe.shape, dtype=bool)
         rows = np.flatnonzero(facing.any(axis=1))
         offset = np.einsum("ikj,ij->ik", self.cp[safe[rows]] - x[rows, None, :], normals[rows])

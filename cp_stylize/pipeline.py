@@ -295,7 +295,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                           result[band.inner, :3].astype(np.float64) @ LUMA, settings.palette,
                           settings.palette_weights or None, strength=settings.strokes, length=settings.stroke_length,
                           width=settings.stroke_width, spread=settings.noise_spread, seed=settings.seed)
-    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes)
+    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes,
+                          progress=lambda f: report(0.95 + 0.05 * f))
     image = ColourHull(input_colours(colours, settings)).limit(image)
     lap("bake_out")
     report(1.0)

@@ -23,6 +23,8 @@ strokes look the same on an object of any size.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from scipy import ndimage
 
@@ -72,10 +74,11 @@ class Strokes:
         self.lattice = _lattice(self.seed)
         self.scale = None           # the streaks' mean and deviation (streaks)
 
-    def __call__(self, points, colours):
-        """The texels' colours (M, C) with the strokes laid over them, at their surface points (M, 3)."""
+    def __call__(self, points, colours, progress=None):
+        """The texels' colours (M, C) with the strokes laid over them, at their surface points (M, 3);
+        ``progress(fraction)`` as the streaks advance (an exception it raises stops them)."""
         colours = np.asarray(colours)
-        s = streaks(self, points)
+        s = streaks(self, points, progress)
         tone = colours[:, :3].astype(np.float64) @ LUMA
         rank = np.searchsorted(self.tones, tone) / max(len(self.tones), 1)
         painted = palette_by_tone(rank + self.spread * s, self.palette, self.weights)
@@ -119,7 +122,7 @@ def solid_noise(points, cell, seed=0, lattice=None):
     return ndimage.map_coordinates(lattice, x, order=1, mode="grid-wrap", prefilter=False)
 
 
-def streaks(strokes, points):
+def streaks(strokes, points, progress=None):
     """Line integral convolution of :func:`solid_noise` along the strokes' field, at surface points
     (M, 3), about ``length`` long and ``width`` wide, scaled to mean 0 and standard deviation 1
     over the band's closest points (so a point's value depends on that point alone, and texels on
@@ -135,7 +138,7 @@ def streaks(strokes, points):
         raw = _convolve(strokes, sample)
         strokes.scale = (float(raw.mean()), max(float(raw.std()), 1e-12))
     mean, std = strokes.scale
-    return (_convolve(strokes, points) - mean) / std
+    return (_convolve(strokes, points, progress) - mean) / std
 
 
 def streak_steps(length, width):
@@ -143,13 +146,15 @@ def streak_steps(length, width):
     return int(np.clip(round(_STEPS_PER_ASPECT * length / width), 4, 32))
 
 
-def _convolve(strokes, points):
+def _convolve(strokes, points, progress=None):
     band = strokes.band
     points = np.asarray(points, dtype=np.float64)
     n = streak_steps(strokes.length, strokes.width)
     step = 0.5 * strokes.length / n
     lattice = strokes.lattice
     frame = strokes.frame
+    chunks = range(0, len(points), _CHUNK)
+    done, lock = [0], threading.Lock()
 
     def walk(s):
         x0 = points[s:s + _CHUNK]
@@ -176,6 +181,10 @@ def _convolve(strokes, points):
                 x -= (np.einsum("ij,ij->i", x - cp, nrm) * live)[:, None] * nrm
                 total += live * solid_noise(x, strokes.width, lattice=lattice)
                 count += live
+        if progress is not None:
+            with lock:                      # in order, whichever worker finishes
+                done[0] += 1
+                progress(done[0] / len(chunks))
         return total / count
 
-    return np.concatenate([np.empty(0)] + map_parallel(walk, range(0, len(points), _CHUNK)))
+    return np.concatenate([np.empty(0)] + map_parallel(walk, chunks))

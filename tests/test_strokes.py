@@ -78,3 +78,20 @@ def test_strokes_paint_the_palette_in_the_tones_order(sphere_band):
     half = Strokes(sphere_band, _meridians(sphere_band), tones, palette, None, strength=0.5,
                    length=0.2, width=0.01, spread=0.2)(_on_sphere(theta, phi), colours)
     np.testing.assert_allclose(half, 0.5 * (colours + out), atol=1e-12)
+
+
+def test_the_streaks_report_their_progress_in_order_and_stop_when_told(sphere_band):
+    strokes = Strokes(sphere_band, _meridians(sphere_band), [0.0, 1.0], [(0, 0, 0), (1, 1, 1)], None,
+                      strength=1.0, length=0.05, width=0.01, spread=0.2)
+    rng = np.random.default_rng(3)
+    points = _on_sphere(rng.uniform(-1, 1, 140_000), rng.uniform(0, 2 * np.pi, 140_000))
+    colours = np.full((len(points), 3), 0.5)
+    seen = []
+    strokes(points, colours, progress=seen.append)
+    assert len(seen) == 3 and seen == sorted(seen) and seen[-1] == 1.0          # three chunks of texels
+
+    def stop(fraction):
+        raise KeyboardInterrupt("stop")
+
+    with pytest.raises(KeyboardInterrupt):
+        strokes(points, colours, progress=stop)
