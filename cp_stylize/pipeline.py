@@ -304,14 +304,20 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                          spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings)
 
 
-#: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` (fast scheme):
-#: seconds per band point to build the band and the scheme's operators and to bake
-#: in and out ...
+#: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
+#: the README's Performance section (fast scheme): seconds per band point to build the band and
+#: the scheme's operators and to bake in and out ...
 SECONDS_SETUP_PER_POINT = {"gaussian": 6e-6, "other": 1e-5}
 #: ... per band point and colour channel for one step (an extension and a stencil product) ...
 SECONDS_STEP_PER_POINT = 4e-8
-#: ... and per band point for one rebuild of the diffusion tensor (about every other step).
+#: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
 SECONDS_TENSOR_PER_POINT = 3e-7
+#: ... per triangle for the closest point search (it meets every triangle near each block) ...
+SECONDS_PER_TRIANGLE = 6e-5
+#: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
+SECONDS_PER_TEXEL = 3.4e-6
+#: ... and once a run (the colour hull, the normalisation, small set-ups).
+SECONDS_PER_RUN = 2.0
 
 #: Brush strokes: seconds per texel and step of its streak, per band point for their line field,
 #: and the share of an atlas's texels that are baked (islands and margin).
@@ -319,13 +325,19 @@ SECONDS_STROKE_STEP = 2.5e-7
 SECONDS_STROKE_FIELD_PER_POINT = 2e-6
 BAKED_SHARE = 0.6
 
-#: Peak memory of a colour run, in bytes a band point: matrices (E: 64 weights, the
-#: 19-point stencil, L, gradients, smoothing passes), geometry, tensor fields, work arrays.
-BYTES_PER_BAND_POINT = 1600
+#: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
+#: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
+BYTES_PER_BAND_POINT = 1650
+#: ... a triangle (the closest point search's candidate pairs), a texel of the atlas ...
+BYTES_PER_TRIANGLE = 1400
+BYTES_PER_TEXEL = 128
+#: ... and the libraries a Python process with NumPy and SciPy holds.
+BYTES_PER_RUN = 200 * 2**20
 
 
-def estimate_run(n_points, settings, channels=3):
-    """Rough ``(seconds, bytes)`` of a run (band, bake-in, fast diffusion, bake-out) on ``n_points``."""
+def estimate_run(n_points, settings, channels=3, triangles=0):
+    """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
+    ``n_points`` band points around a mesh of ``triangles``."""
     from .diffusion import PAPER_CFL
     from .heat_flow import time_steps
 
@@ -334,12 +346,13 @@ def estimate_run(n_points, settings, channels=3):
     per_point += steps * channels * SECONDS_STEP_PER_POINT
     if settings.mode != "gaussian":
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
-    seconds = n_points * per_point
+    texels = settings.image_size ** 2
+    seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
     if settings.strokes > 0:
-        texels = BAKED_SHARE * settings.image_size ** 2
-        seconds += texels * 2 * streak_steps(settings.stroke_length, settings.stroke_width) * SECONDS_STROKE_STEP
-        seconds += n_points * SECONDS_STROKE_FIELD_PER_POINT
-    return seconds, n_points * BYTES_PER_BAND_POINT
+        steps = 2 * streak_steps(settings.stroke_length, settings.stroke_width)
+        seconds += BAKED_SHARE * texels * steps * SECONDS_STROKE_STEP + n_points * SECONDS_STROKE_FIELD_PER_POINT
+    nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    return seconds, nbytes
 
 
 @dataclasses.dataclass(frozen=True)
@@ -359,5 +372,5 @@ def estimate(vertices, faces, settings, channels=3):
     a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
     area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
     n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
-    seconds, nbytes = estimate_run(n, settings, channels)
+    seconds, nbytes = estimate_run(n, settings, channels, len(faces))
     return RunEstimate(settings.spacing / scale, n, nbytes, seconds)

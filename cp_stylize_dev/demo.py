@@ -16,8 +16,8 @@ from cp_stylize.blender import images
 from . import scene
 
 
-def build_scene(texture_name="forest"):
-    """Suzanne with a Subdivision modifier and a material reading a photograph through her UVs."""
+def build_scene(texture_name="forest", levels=2):
+    """Suzanne with a Subdivision modifier (``levels``) and a material reading a photograph through her UVs."""
     scene.reset()
     texture = scene.photo_texture(texture_name)
     source = images.array_to_image("demo_texture", texture)
@@ -26,7 +26,7 @@ def build_scene(texture_name="forest"):
     obj = bpy.context.active_object
     obj.name = "Suzanne"
     modifier = obj.modifiers.new("Subdivision", "SUBSURF")
-    modifier.levels = modifier.render_levels = 2
+    modifier.levels = modifier.render_levels = levels
     bpy.ops.object.shade_smooth()
     obj.rotation_euler = (0.0, 0.0, 0.0)
     obj.data.materials.append(material)
@@ -73,8 +73,9 @@ def run(out_dir, *, preset="starry_night", quality="STANDARD", image_size="1024"
     return paths
 
 
-def save_mesh_arrays(path, texture_name="forest"):
-    """Write the demo's textured Suzanne as plain arrays (``.npz``) for runs without Blender.
+def save_mesh_arrays(path, texture_name="forest", levels=2):
+    """Write the demo's textured Suzanne (``levels`` of subdivision) as plain arrays (``.npz``) for runs
+    without Blender.
 
     Keys: ``vertices`` (V, 3) in world units, ``faces`` (F, 3), ``uvs`` (F, 3, 2)
     and ``image`` (H, W, 3), the sRGB texture read through ``uvs`` on every face.
@@ -84,7 +85,7 @@ def save_mesh_arrays(path, texture_name="forest"):
     from cp_stylize.blender.stylize import prepare
     from cp_stylize.presets import StylizeSettings
 
-    obj, _, _ = build_scene(texture_name)
+    obj, _, _ = build_scene(texture_name, levels)
     job = prepare(obj, StylizeSettings())
     (texture,) = job.colours.textures
     if not np.all(texture.faces):

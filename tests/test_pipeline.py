@@ -54,15 +54,25 @@ def test_starry_night_noise_brings_the_palette(torus_mesh):
 
 
 def test_estimate_grows_with_the_grid_and_the_filter():
-    ced = load_preset("starry_night").replace(strokes=0.0)
+    ced = load_preset("starry_night").replace(strokes=0.0, image_size=16)
+
+    def per_points(settings):                # what 100,000 more band points cost
+        (s1, b1), (s2, b2) = estimate_run(100_000, settings), estimate_run(200_000, settings)
+        return s2 - s1, b2 - b1
+
+    (fine, b2), (gauss, _) = per_points(ced.replace(spacing=ced.spacing / 2)), per_points(ced.replace(mode="gaussian"))
+    assert b2 == per_points(ced)[1] and fine > 1.5 * per_points(ced)[0]       # four times the steps
+    assert gauss < 0.7 * per_points(ced)[0]                                   # no tensor
     s1, b1 = estimate_run(100_000, ced)
-    s2, b2 = estimate_run(100_000, ced.replace(spacing=ced.spacing / 2))
-    gauss, _ = estimate_run(100_000, ced.replace(mode="gaussian"))
-    assert b1 == b2 and s2 > 1.5 * s1 and gauss < 0.7 * s1  # four times the steps; no tensor
     # brush strokes cost by the texel and the streak's step
     painted, _ = estimate_run(100_000, ced.replace(strokes=1.0))
     larger, _ = estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048))
     assert s1 < painted < larger
+    # the closest point search costs by the triangle, the atlas by the texel, in time and memory
+    scan = estimate_run(100_000, ced, triangles=1_000_000)
+    big = estimate_run(100_000, ced.replace(image_size=4096))
+    assert scan[0] > s1 + 30 and scan[1] > b1 + 2**30
+    assert big[0] > s1 + 30 and big[1] > b1 + 2**30
 
 
 def test_a_flat_mesh_is_reported():
