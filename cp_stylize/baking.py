@@ -14,7 +14,6 @@ Images are float arrays (H, W, C), row 0 at the bottom (see :mod:`~cp_stylize.te
 
 from __future__ import annotations
 
-import threading
 import typing
 
 import numpy as np
@@ -143,18 +142,14 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
     report = progress or (lambda fraction: None)
     share = 1.0 if strokes is None else 0.5          # of the progress, for the interpolation
-    done, lock = [0], threading.Lock()
 
     def interpolate(s):
         part = slice(s, s + _POINTS)
         out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
                                mesh.piece[faces[part]])
         found[part] = out.reshape(len(out), -1)
-        with lock:                                   # in order, whichever worker finishes
-            done[0] += len(out)
-            report(share * done[0] / len(points))
 
-    map_parallel(interpolate, range(0, len(points), _POINTS))
+    map_parallel(interpolate, range(0, len(points), _POINTS), progress=lambda fraction: report(share * fraction))
     if detail is not None:
         original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
         found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)

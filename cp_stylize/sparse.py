@@ -41,13 +41,26 @@ def _executor():
         return _pool
 
 
-def map_parallel(fn, items):
+def map_parallel(fn, items, progress=None):
     """``[fn(x) for x in items]`` on the worker threads (in order).
 
     Serial for one item, on one core, and inside a worker (a nested parallel
-    map would wait for workers that wait for it).
+    map would wait for workers that wait for it).  ``progress(fraction)``, if
+    given, is called with the share of items done as each finishes, one call
+    at a time and rising, whichever worker finishes; an exception it raises
+    stops the map.
     """
     items = list(items)
+    if progress is not None:
+        done, lock, inner = [0], threading.Lock(), fn
+
+        def fn(x):
+            out = inner(x)
+            with lock:
+                done[0] += 1
+                progress(done[0] / len(items))
+            return out
+
     if len(items) < 2 or workers() < 2 or getattr(_local, "worker", False):
         return [fn(x) for x in items]
 

@@ -23,11 +23,10 @@ strokes look the same on an object of any size.
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 from scipy import ndimage
 
+from .diffusion import GridSmoothing
 from .noise import LUMA, palette_by_tone
 from .sparse import map_parallel
 from .structure import eigen_2x2, reduce_to_tangent
@@ -70,7 +69,7 @@ class Strokes:
         # what a streak's step reads at its nearest band point, gathered at once: the field, the
         # normal and the closest point (and, on a mesh, the connected piece, which a streak keeps to)
         pieces = np.zeros(band.size) if band.pieces is None else band.pieces
-        self.frame = np.column_stack([np.asarray(field, dtype=np.float64), surface_normals(band), band.cp, pieces]).astype(np.float64)
+        self.frame = np.column_stack([field, surface_normals(band), band.cp, pieces]).astype(np.float64)
         self.lattice = _lattice(self.seed)
         self.scale = None           # the streaks' mean and deviation (streaks)
 
@@ -91,7 +90,6 @@ def line_field(band, values, rho, dtype=np.float32):
     """Unit stroke directions (N, 3) along the structure of band values (N, C): the smaller
     eigenvector of their tangent structure tensor integrated over ``rho`` (a time; deviation
     ``sqrt(2 rho)``), as a line field (its sign is arbitrary)."""
-    from .diffusion import GridSmoothing            # the diffusion's own structure tensor
     smoothing = GridSmoothing(band, dtype, {"sigma": 0.0, "rho": float(rho)})
     for build in smoothing.builds():
         build()
@@ -153,8 +151,6 @@ def _convolve(strokes, points, progress=None):
     step = 0.5 * strokes.length / n
     lattice = strokes.lattice
     frame = strokes.frame
-    chunks = range(0, len(points), _CHUNK)
-    done, lock = [0], threading.Lock()
 
     def walk(s):
         x0 = points[s:s + _CHUNK]
@@ -181,10 +177,6 @@ def _convolve(strokes, points, progress=None):
                 x -= (np.einsum("ij,ij->i", x - cp, nrm) * live)[:, None] * nrm
                 total += live * solid_noise(x, strokes.width, lattice=lattice)
                 count += live
-        if progress is not None:
-            with lock:                      # in order, whichever worker finishes
-                done[0] += 1
-                progress(done[0] / len(chunks))
         return total / count
 
-    return np.concatenate([np.empty(0)] + map_parallel(walk, chunks))
+    return np.concatenate([np.empty(0)] + map_parallel(walk, range(0, len(points), _CHUNK), progress))
