@@ -33,6 +33,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .arrays import expand_runs, split_counts, unit_rows
@@ -44,6 +45,8 @@ __all__ = ["TriangleSearch"]
 _CHUNK = 1 << 17
 #: Side, in grid points, of the blocks that start the band search.
 _BLOCK = 4
+#: Most block keys counted in a dense array when grouping the candidate pairs by block.
+_DENSE_KEYS = 1 << 25
 
 
 class TriangleSearch:
@@ -436,28 +439,46 @@ class TriangleSearch:
         slack = (width + 0.5 * np.sqrt(3.0) * (_BLOCK - 1) * h) * (1 + 1e-9)
         origin = np.min(lo, axis=0)
         dims = np.max(hi, axis=0) - origin + 1
+        strides = np.array([dims[1] * dims[2], dims[2], 1])
+        # the signed distance of the block at lo + o from a triangle's plane is base + side * n.o
+        base = np.einsum("ij,ij->i", h * (_BLOCK * lo + 0.5 * (_BLOCK - 1)) - a, self.normals)
+        key_type = np.int32 if dims.prod() < 2**31 else np.int64
+        lo_key = ((lo - origin) @ strides).astype(key_type)
         keys, owners = [], []
-        bounds = split_counts(counts, _CHUNK * 8)
-        for s, e in zip(bounds[:-1], bounds[1:]):
-            tri, pos = expand_runs(counts[s:e])
-            ext = extent[s:e][tri]
-            iz = pos % ext[:, 2]
-            iy = (pos // ext[:, 2]) % ext[:, 1]
-            ix = pos // (ext[:, 2] * ext[:, 1])
-            block = lo[s:e][tri] + np.column_stack([ix, iy, iz])
-            tri += s
-            centre = h * (_BLOCK * block + 0.5 * (_BLOCK - 1))
-            near = np.abs(np.einsum("ij,ij->i", centre - a[tri], self.normals[tri])) <= slack
-            rel = block[near] - origin
-            keys.append((rel[:, 0] * dims[1] + rel[:, 1]) * dims[2] + rel[:, 2])
-            owners.append(tri[near])
+        # triangles with the same extent in blocks share their offsets: one broadcast per group and chunk
+        big = int(extent.max()) + 1
+        shapes, group = np.unique((extent[:, 0] * big + extent[:, 1]) * big + extent[:, 2], return_inverse=True)
+        shapes = np.column_stack([shapes // (big * big), (shapes // big) % big, shapes % big])
+        by_group = np.argsort(group, kind="stable")
+        bounds = np.r_[0, np.cumsum(np.bincount(group, minlength=len(shapes)))]
+        for g, shape in enumerate(shapes):
+            members = by_group[bounds[g]:bounds[g + 1]]
+            offsets = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+            offset_key = (offsets @ strides).astype(key_type)
+            step = max(1, (_CHUNK * 8) // len(offsets))
+            for k in range(0, len(members), step):
+                tri = members[k:k + step]
+                plane = base[tri, None] + side * (self.normals[tri] @ offsets.T)
+                near = np.abs(plane) <= slack
+                row, col = np.nonzero(near)
+                keys.append(lo_key[tri][row] + offset_key[col])
+                owners.append(tri[row].astype(np.int32))
         keys, owners = np.concatenate(keys), np.concatenate(owners)
-        order = np.argsort(keys, kind="stable")
-        keys, owners = keys[order], owners[order]
-        unique, pair_block = np.unique(keys, return_inverse=True)
+        if dims.prod() <= _DENSE_KEYS:
+            # a counting sort: the blocks' keys index a dense array
+            present = np.bincount(keys, minlength=int(dims.prod())) > 0
+            unique = np.flatnonzero(present)
+            compact = np.cumsum(present) - 1
+            row = compact[keys]
+        else:
+            unique, row = np.unique(keys, return_inverse=True)
+        del keys
+        # grouped by block (a CSR pattern), each block's triangles in ascending order
+        grouped = sp.csr_matrix((np.ones(len(owners), np.int8), (row, owners)), shape=(len(unique), len(self)))
+        del row, owners
+        pair_block = np.repeat(np.arange(len(unique)), np.diff(grouped.indptr))
         rel = np.column_stack([unique // (dims[1] * dims[2]), (unique // dims[2]) % dims[1], unique % dims[2]])
-        return rel + origin, pair_block.astype(np.int64), owners
-
+        return rel + origin, pair_block, grouped.indices
 
 
 def _subdivision_centroids(m):

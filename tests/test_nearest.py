@@ -34,7 +34,10 @@ def test_the_search_finds_the_nearest_triangle_of_every_point(seed):
     assert np.all((v >= 0) & (w >= 0) & (v + w <= 1 + 1e-12))
 
 
-def test_the_band_holds_every_grid_point_within_its_width_once():
+@pytest.mark.parametrize("dense_keys", [True, False])
+def test_the_band_holds_every_grid_point_within_its_width_once(dense_keys, monkeypatch):
+    if not dense_keys:      # the blocks' keys grouped by sorting, as for a grid too large for a dense count
+        monkeypatch.setattr("cp_stylize.nearest._DENSE_KEYS", 0)
     corners = _soup(60, 5)
     search = TriangleSearch(*corners)
     h, width = 0.1, 0.23
@@ -49,3 +52,5 @@ def test_the_band_holds_every_grid_point_within_its_width_once():
     grid = np.stack(np.meshgrid(*[np.arange(a, b + 1) for a, b in zip(lo, hi)], indexing="ij"), axis=-1).reshape(-1, 3)
     near = np.sqrt(_brute_force(search, h * grid).min(axis=1)) <= width
     assert found == {tuple(p) for p in grid[near].astype(np.int64)}
+    # and each point's distance is the least over all triangles
+    np.testing.assert_allclose(d2, _brute_force(search, h * ijk.astype(float)).min(axis=1), rtol=1e-12, atol=1e-15)
