@@ -17,11 +17,13 @@ from __future__ import annotations
 import typing
 
 import numpy as np
+import scipy.sparse as sp
 from scipy import ndimage
 
 from .arrays import count
 from .atlas import Atlas, check_mesh
-from .sparse import map_parallel
+from .band import apply
+from .sparse import SplitMatrix, map_parallel
 from .texture import texel_centres
 
 __all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail"]
@@ -76,7 +78,8 @@ def _closest_in_triangle_2d(q, a, b, c):
     return np.where(inside[:, None], q, nearest)
 
 
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None, progress=None):
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None, progress=None,
+                  texels=None, matrix=None):
     """Image of band values laid out on a UV atlas.
 
     Parameters
@@ -100,6 +103,12 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
         ``strokes(points, colours)``: the texels' colours (M, C) with brush
         strokes laid over them at their surface points (M, 3), last
         (:class:`cp_stylize.strokes.Strokes`).
+    texels : tuple, optional
+        :func:`atlas_points` ``(mesh, atlas, margin)``, made before (it depends
+        on the mesh and atlas only).
+    matrix : SplitMatrix, optional
+        :func:`bake_matrix` of the band and these texels, in the values' type,
+        made before (it depends on the band and atlas only).
 
     Returns
     -------
@@ -137,19 +146,22 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
         if sampled.shape[1] != channels:
             raise ValueError(f"the detail's sampled values have {sampled.shape[1]} channel(s), the values {channels}")
         values = np.hstack([values.reshape(band.size, channels), sampled.astype(values.dtype)])
-    texels, points, faces, barys = atlas_points(mesh, atlas, margin)
+    texels, points, faces, barys = atlas_points(mesh, atlas, margin) if texels is None else texels
     size = atlas.size
     found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
     report = progress or (lambda fraction: None)
     share = 1.0 if strokes is None else 0.5          # of the progress, for the interpolation
 
-    def interpolate(s):
-        part = slice(s, s + _POINTS)
-        out = band.interpolate(values, points[part], mesh.normal(points[part], faces[part], barys[part]),
-                               mesh.piece[faces[part]])
-        found[part] = out.reshape(len(out), -1)
+    if matrix is None:
+        def interpolate(s):
+            part = slice(s, s + _POINTS)
+            found[part] = apply(_rows(band, mesh, points, faces, barys, part, values.dtype), values).reshape(
+                -1, found.shape[1])
 
-    map_parallel(interpolate, range(0, len(points), _POINTS), progress=lambda fraction: report(share * fraction))
+        map_parallel(interpolate, range(0, len(points), _POINTS), progress=lambda f: report(share * f))
+    else:
+        for j in range(found.shape[1]):
+            found[:, j] = matrix @ np.ascontiguousarray(values.reshape(band.size, -1)[:, j])
     if detail is not None:
         original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
         found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
@@ -158,6 +170,22 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     image = np.full((size * size, channels), fill, dtype=values.dtype)
     image[texels] = found
     return image.reshape(size, size, channels)
+
+
+def _rows(band, mesh, points, faces, barys, part, dtype):
+    """The interpolation matrix of the texel points ``points[part]`` (see :func:`bake_to_atlas`)."""
+    return band.interpolation_matrix(points[part], dtype, mesh.normal(points[part], faces[part], barys[part]),
+                                     mesh.piece[faces[part]])
+
+
+def bake_matrix(band, texels, dtype=np.float32, progress=None):
+    """The band's interpolation (M, N) at the surface points of :func:`atlas_points` ``texels``, as a
+    :class:`~cp_stylize.sparse.SplitMatrix` (built in blocks on all cores); 64 entries a texel."""
+    mesh = check_mesh(band.surface)
+    _, points, faces, barys = texels
+    blocks = map_parallel(lambda s: _rows(band, mesh, points, faces, barys, slice(s, s + _POINTS), dtype),
+                          range(0, len(points), _POINTS), progress=progress)
+    return SplitMatrix.stacked(blocks or [sp.csr_matrix((0, band.size), dtype=dtype)], band.size, dtype)
 
 
 def atlas_points(mesh, atlas, margin):

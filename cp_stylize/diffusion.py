@@ -30,6 +30,7 @@ from .sparse import SplitMatrix, map_parallel
 from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
 from .structure import eigen_2x2, invariants, outer_products, products, reduce_to_tangent, structure_tensor
 from .arrays import unit_rows
+from .cache import digest
 from .tangent import surface_normals, tangent_basis
 
 __all__ = ["diffuse", "flow_noise", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
@@ -308,13 +309,17 @@ class GridSmoothing:
 
     def _build_gradients(self):
         # gradients wherever the band has the points: around the surface and at every point E reads
-        self.gradients = [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")]
+        self.gradients = self.band.structure(
+            "gradients", self.dtype.str,
+            lambda: [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")])
 
     def _build_presmooth(self):
         sigma, band = self.params.get("sigma", 0.0), self.band
         self._presmooth = None
         if sigma > 0:
-            self._presmooth = GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype)
+            self._presmooth = band.structure(
+                "presmooth", (sigma, self.dtype.str),
+                lambda: GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype))
 
     def _build_postsmooth(self):
         # the tensor from a shell of three spacings about the surface; a rho narrower than a
@@ -322,7 +327,9 @@ class GridSmoothing:
         rho, band = self.params["rho"], self.band
         self._postsmooth = None
         if np.sqrt(2.0 * rho) >= band.h:
-            self._postsmooth = GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype)
+            self._postsmooth = band.structure(
+                "postsmooth", (rho, self.dtype.str),
+                lambda: GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype))
 
     def presmoothed(self, rows):
         return rows if self._presmooth is None else self._presmooth(rows)
@@ -370,13 +377,17 @@ class _Flow:
         self.orientation = None if mode != "ced" or field is None else self._field_orientation()
 
     def _build_divergence(self):
-        self.divergence = DivergenceOperator(self.band, self.dtype)
+        self.divergence = self.band.structure("divergence", self.dtype.str,
+                                              lambda: DivergenceOperator(self.band, self.dtype))
         self._A = self.divergence.template()
         self.A = SplitMatrix(self._A)
 
     def _build_tangents(self):
-        Q = tangent_basis(self.band, self.normals)
-        self.Q = np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
+        def build():
+            Q = tangent_basis(self.band, self.normals)
+            return np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
+
+        self.Q = self.band.structure("tangents", (digest(self.normals), np.dtype(self.smoothing.work).str), build)
 
     def _field_orientation(self):
         """The field's across-stroke line field in the tangent basis Q, as a doubled angle weighted by its

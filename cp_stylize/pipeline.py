@@ -24,7 +24,8 @@ import typing
 import numpy as np
 
 from .atlas import UnusableUVs, uv_atlas
-from .baking import Detail, bake_to_atlas
+from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
+from .cache import RunCache, digest
 from .colours import ColourHull
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
@@ -34,7 +35,7 @@ from .noise import LUMA, inject_noise, tone_noise
 from .strokes import Strokes, line_field, streak_steps
 from .sampling import texture_at
 
-__all__ = ["ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
+__all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
            "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours",
            "stylize", "estimate", "estimate_run"]
 
@@ -47,6 +48,9 @@ CURVATURE_SMOOTHING = 4.0
 #: The brush strokes follow the result's structure integrated over this time per squared stroke
 #: length (0.5: a deviation of one stroke length), so that they bend no tighter than they are long.
 STROKE_FIELD = 0.5
+#: A band kept for re-runs keeps its bake-out's interpolation for atlases of up to this many baked
+#: texels (a 1024 x 1024 atlas; 64 weights a texel, about 512 MiB), so a re-run bakes out in one product.
+KEEP_BAKE_TEXELS = 1 << 20
 
 
 def normalisation(vertices, faces):
@@ -178,6 +182,21 @@ def sample_colours(band, colours, channels=3):
     return colours_at(band.face, band.bary, colours, channels)
 
 
+def colour_digest(colours):
+    """A digest of a :class:`ColourInput`'s arrays (see :func:`cp_stylize.cache.digest`)."""
+    parts = [colours.corner_colours]
+    for texture in colours.textures:
+        texture = Texture(*texture)
+        parts += [texture.image, texture.uvs, texture.faces, *texture.wrap]
+    return digest(*parts)
+
+
+def read_only(array):
+    """``array``, no longer writable: a cached array that a run would change in place raises instead."""
+    array.setflags(write=False)
+    return array
+
+
 def colours_at(face, bary, colours, channels=3):
     """Colour (M, channels) of a :class:`ColourInput` at points of its mesh: input faces (M,), barycentrics (M, 3)."""
     values = np.zeros((len(face), channels), dtype=np.float32)
@@ -217,7 +236,7 @@ def input_colours(colours, settings, channels=3):
 
 
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
-            directions=None, progress=None, log=None):
+            directions=None, progress=None, log=None, cache=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
 
     Parameters
@@ -244,6 +263,10 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         ``progress(fraction)``; an exception it raises stops the run.
     log : callable, optional
         ``log(message)`` for what the run finds on its way (skipped faces, the band's size).
+    cache : RunCache, optional
+        Takes the normalised mesh, the atlas, the band with its operators and
+        the atlas's surface points from an earlier run on the same mesh, grid
+        and atlas, and keeps this run's for the next (see :mod:`cp_stylize.cache`).
     """
     start = time.perf_counter()
     timings = {}
@@ -260,18 +283,34 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     if settings.stroke_direction == "attribute" and np.shape(directions) != (len(faces), 3, 3):
         raise ValueError(f"direction 'attribute' needs the mesh's vectors, directions= of shape ({len(faces)}, 3, 3), "
                          f"got {'none' if directions is None else np.shape(directions)}")
-    mesh = TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale, faces)
+    keep = cache is not None
+    cache = RunCache() if cache is None else cache
+    shape = digest(vertices, faces)
+    cache.start(shape)
+    mesh = cache.get("mesh", shape, lambda: TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale,
+                                                          faces))
     if mesh.skipped_faces:
         say(f"skipped {mesh.skipped_faces} degenerate face(s)")
     report(0.0)
     if atlas is None:
-        atlas = uv_atlas(mesh, settings.image_size, uvs, allow_new=new_atlas)
+        atlas = cache.get("atlas", (shape, digest(uvs), settings.image_size, new_atlas),
+                          lambda: uv_atlas(mesh, settings.image_size, uvs, allow_new=new_atlas))
     lap("atlas")
-    band = Band.build(mesh, settings.spacing, stencil=stencil_for(settings.mode))
+    layout = (shape, digest(atlas.uvs, atlas.texels), atlas.size, settings.margin)
+    stencil = stencil_for(settings.mode)
+
+    def new_band():
+        band = Band.build(mesh, settings.spacing, stencil=stencil)
+        if keep:
+            band.kept = RunCache()      # the diffusion's operators stay with the band
+        return band
+
+    band = cache.get("band", (shape, settings.spacing, stencil), new_band)
     lap("band")
     say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
     report(0.1)
-    sampled = sample_colours(band, colours)
+    painted = (shape, settings.spacing, stencil, colour_digest(colours))
+    sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
     values = sampled
     if settings.noise_mapping == "tone":
         values = tone_noise(values, settings.noise_fraction, settings.palette,
@@ -288,15 +327,23 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     detail = None
     if settings.detail > 0:
         # what the filter starts from: the sampled colours extended once, as every step extends
-        detail = Detail(band.extend(sampled), lambda face, bary: colours_at(face, bary, colours), settings.detail)
+        detail = Detail(cache.get("extended", painted, lambda: read_only(band.extend(sampled))),
+                        lambda face, bary: cache.get("texel_colours", (painted, layout),
+                                                     lambda: read_only(colours_at(face, bary, colours))),
+                        settings.detail)
     strokes = None
     if settings.strokes > 0:
         strokes = Strokes(band, line_field(band, result, STROKE_FIELD * settings.stroke_length**2),
                           result[band.inner, :3].astype(np.float64) @ LUMA, settings.palette,
                           settings.palette_weights or None, strength=settings.strokes, length=settings.stroke_length,
                           width=settings.stroke_width, spread=settings.noise_spread, seed=settings.seed)
+    texels = cache.get("texels", layout, lambda: atlas_points(mesh, atlas, settings.margin))
+    matrix = None
+    if band.kept is not None and len(texels[0]) <= KEEP_BAKE_TEXELS:
+        matrix = band.structure("bake_out", (layout, result.dtype.str),
+                                lambda: bake_matrix(band, texels, result.dtype, progress=lambda f: report(0.95)))
     image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes,
-                          progress=lambda f: report(0.95 + 0.05 * f))
+                          progress=lambda f: report(0.95 + 0.05 * f), texels=texels, matrix=matrix)
     image = ColourHull(input_colours(colours, settings)).limit(image)
     lap("bake_out")
     report(1.0)

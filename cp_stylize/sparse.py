@@ -106,11 +106,23 @@ class SplitMatrix:
             block.data = matrix.data[a:b]
             self.blocks.append(block)
 
+    @classmethod
+    def stacked(cls, blocks, columns, dtype):
+        """The rows of the CSR ``blocks``, one above the other, each block multiplied on its own thread."""
+        self = cls.__new__(cls)
+        rows = np.cumsum([0] + [b.shape[0] for b in blocks])
+        self.shape, self.dtype = (int(rows[-1]), int(columns)), np.dtype(dtype)
+        self.blocks = [sp.csr_matrix(b, dtype=dtype) for b in blocks]
+        self.nnz = sum(b.nnz for b in self.blocks)
+        self.bounds = list(zip(rows[:-1], rows[1:]))
+        self.matrix = None
+        return self
+
     def __matmul__(self, v):
         if v.ndim != 1:
             raise ValueError("SplitMatrix multiplies one vector at a time")
         if len(self.blocks) == 1:
-            return self.matrix @ v
+            return self.blocks[0] @ v
         out = np.empty(self.shape[0], dtype=np.result_type(self.dtype, v.dtype))
 
         def part(k):

@@ -114,8 +114,9 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         applied = stylize.apply(job)
         result = job.result
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
+        reused = ", the last run's band reused" if "band" in job.reused else ""
         self.report({"INFO"}, f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
-                              f"({result.band_size:,} band points, grid spacing {result.spacing:.4g})")
+                              f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})")
         return {"FINISHED"}
 
     def execute(self, context):
@@ -182,6 +183,39 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
     def cancel(self, context):
         self._run.cancel()
         self._stop(context)
+
+
+def kept_bytes():
+    """Bytes the last run kept for re-runs (nothing is imported when no run has been made)."""
+    module = sys.modules.get(f"{__package__}.stylize")
+    return 0 if module is None else module.kept_bytes()
+
+
+def release_kept():
+    module = sys.modules.get(f"{__package__}.stylize")
+    if module is not None:
+        module.release()
+
+
+class CP_STYLIZE_OT_release(bpy.types.Operator):
+    """Free the memory the last run kept so that the next run on the same mesh and grid starts at the filter"""
+
+    bl_idname = "cp_stylize.release"
+    bl_label = "Free Kept Data"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        if _running is not None:
+            cls.poll_message_set("a Stylize run is in progress")
+            return False
+        return kept_bytes() > 0
+
+    def execute(self, context):
+        freed = kept_bytes()
+        release_kept()
+        self.report({"INFO"}, f"freed {freed / 2**20:,.0f} MiB kept for re-runs")
+        return {"FINISHED"}
 
 
 # -- presets -------------------------------------------------------------------------------------
@@ -310,6 +344,7 @@ class CP_STYLIZE_OT_palette_remove(bpy.types.Operator):
 classes = (
     OBJECT_OT_cp_stylize_estimate,
     OBJECT_OT_cp_stylize,
+    CP_STYLIZE_OT_release,
     CP_STYLIZE_OT_preset_load,
     CP_STYLIZE_OT_preset_add,
     CP_STYLIZE_OT_preset_remove,

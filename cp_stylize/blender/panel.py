@@ -134,6 +134,11 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
         layout.separator()
         layout.operator("object.cp_stylize", icon="BRUSH_DATA")
         layout.operator("object.cp_stylize_estimate", icon="INFO")
+        held = operators.kept_bytes()
+        if held:
+            row = layout.row(align=True)
+            row.label(text=f"Kept for re-runs: {held / 2**20:,.0f} MiB")
+            row.operator("cp_stylize.release", text="", icon="TRASH")
 
 
 classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_noise, VIEW3D_PT_cp_stylize_output)

@@ -20,6 +20,14 @@ colours and updates the same copy); with ``target="APPLY"`` the object's own
 materials.  Where a mesh shares its data with other objects, the copy is
 assigned to this object only.  A saved image never overwrites a file: it takes
 the first free name (``wood.png``, ``wood.001.png``, ...).
+
+What a run keeps: the parts it built before its filter (the band and its
+operators, the atlas, the surface points of the texels; see
+:mod:`cp_stylize.cache`), in memory only, so that the next run on the same
+mesh at the same grid spacing starts at the filter.  They are keyed by the
+mesh's own numbers, so an edited mesh, an undo or another object never
+reads stale parts; :func:`release` frees them, and so do loading a file and
+disabling the add-on.
 """
 
 from __future__ import annotations
@@ -82,6 +90,7 @@ class Job:
     slots_state: list
     estimate: object                  # pipeline.RunEstimate
     result: object = None
+    reused: list = dataclasses.field(default_factory=list)   # the parts the run took from the last one
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,6 +98,35 @@ class Applied:
     image: str                        # the new image's name
     path: str | None                  # the file it was saved as
     materials: tuple                  # names of the materials that show it
+
+
+# -- what runs keep for the next ---------------------------------------------------------------
+
+_kept = None            # a cp_stylize.cache.RunCache, made by the first run
+_kept_bytes = 0         # what it held after the last run
+
+
+def kept():
+    """The :class:`~cp_stylize.cache.RunCache` runs share (made on first use)."""
+    global _kept
+    if _kept is None:
+        from ..cache import RunCache
+
+        _kept = RunCache()
+    return _kept
+
+
+def kept_bytes():
+    """Bytes the parts kept for re-runs held after the last run (0 when nothing is kept)."""
+    return _kept_bytes if _kept is not None and len(_kept) else 0
+
+
+def release():
+    """Free everything kept for re-runs."""
+    global _kept_bytes
+    if _kept is not None:
+        _kept.clear()
+    _kept_bytes = 0
 
 
 # -- checks ----------------------------------------------------------------------------------
@@ -228,9 +266,15 @@ def _bake_atlas(obj, mesh, settings, new_atlas):
     from ..atlas import UnusableUVs, uv_atlas
     from ..mesh import TriangleMesh
 
+    from ..cache import digest
+
     uvs = mesh.uv_maps.get(mesh.render_uv)
+    cache = kept()
+    cache.start(digest(mesh.vertices, mesh.triangles))      # the key of the core's own parts
     try:
-        return uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs, allow_new=new_atlas)
+        return cache.get("baked_atlas", (digest(uvs), settings.image_size, new_atlas),
+                         lambda: uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs,
+                                          allow_new=new_atlas))
     except UnusableUVs as err:
         raise StylizeError(_no_atlas_message(obj.name, err)) from None
 
@@ -301,12 +345,17 @@ def run_core(job, progress=None, log=None):
     from ..atlas import UnusableUVs
     from ..pipeline import stylize
 
+    global _kept_bytes
+    cache = kept()
     try:
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
                              atlas=job.atlas, new_atlas=job.new_atlas, directions=job.mesh.directions,
-                             progress=progress, log=log)
+                             progress=progress, log=log, cache=cache)
     except UnusableUVs as err:
         raise StylizeError(_no_atlas_message(job.object_name, err)) from None
+    finally:
+        _kept_bytes = cache.nbytes()
+    job.reused = list(cache.reused)
     return job.result
 
 

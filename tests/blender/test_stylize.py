@@ -342,3 +342,30 @@ def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
     same, other = (np.abs(results["comb"] - results[k])[covered].mean() for k in ("axis", "across"))
     print(f"\nmean change over the covered texels: axis {same:.2e}, other attribute {other:.3f}")
     assert same < 1e-4 and other > 0.02
+
+
+def test_a_re_run_reuses_the_band_and_gives_a_fresh_runs_image(addon, capfd):
+    from cp_stylize.blender import stylize
+
+    obj, material, source = _textured_sphere()
+    addon.mode, addon.time = "eed", 2e-4
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert stylize.kept_bytes() > 10 * 2**20
+    addon.time = 4e-4                                          # a new filter parameter, the same mesh and grid
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert {"mesh", "band", "texels", "sampled"} <= set(stylize.kept().reused)
+    again = _pixels(bpy.data.images["Ball_stylized"]).copy()
+    bpy.ops.cp_stylize.release()
+    assert stylize.kept_bytes() == 0 and len(stylize.kept()) == 0
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert stylize.kept().reused == []
+    np.testing.assert_array_equal(_pixels(bpy.data.images["Ball_stylized"]), again)
+    # an edited mesh is read afresh
+    obj.data.vertices[0].co.z += 0.2
+    obj.data.update()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert "band" not in stylize.kept().reused and "mesh" not in stylize.kept().reused
+    # loading a file frees what was kept
+    assert stylize.kept_bytes() > 0
+    bpy.ops.wm.read_homefile(use_empty=True)
+    assert stylize.kept_bytes() == 0

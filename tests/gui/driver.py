@@ -202,6 +202,23 @@ def scenario_undo():
     facts["reports"] = reports()
 
 
+def scenario_rerun():
+    """A run, then the same object again with a longer time: the second run reuses the first's band."""
+    yield from stylize_and_watch()
+    settings = bpy.context.scene.cp_stylize
+    settings.time *= 1.5
+    yield from stylize_and_watch()
+    addon = sys.modules[f"{ADDON}.cp_stylize.blender.operators"]
+    facts["kept_mib"] = addon.kept_bytes() / 2**20
+    _, area, _, sidebar = view3d()
+    area.tag_redraw()
+    yield 1.0
+    screenshot("rerun_sidebar", sidebar)
+    in_view3d(bpy.ops.cp_stylize.release)
+    facts["kept_after_free"] = addon.kept_bytes()
+    facts["reports"] = reports()
+
+
 def scenario_escape():
     """Esc while the run works."""
     before = snapshot()
