@@ -30,6 +30,7 @@ import importlib.util
 import numpy as np
 
 from .arrays import check_uvs, count, expand_runs, split_counts
+from .sparse import map_parallel, workers
 
 __all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "check_mesh"]
 
@@ -124,7 +125,10 @@ def _rasterise(uv, size):
     best_bary = np.zeros((size * size, 3), dtype=np.float32)
     claims = np.zeros(size * size, dtype=np.uint8)
     bounds = split_counts(unit_cols, _TEXELS)
-    for s, e in zip(bounds[:-1], bounds[1:]):
+
+    def candidates(span):
+        """The best triangle of each texel among the units ``span``, and the texels they claim."""
+        s, e = span
         unit, col = expand_runs(unit_cols[s:e])
         unit += s
         t = unit_tri[unit]
@@ -140,15 +144,21 @@ def _rasterise(uv, size):
         inside = np.flatnonzero(score >= -_EDGE)
         texel, score, k = texel[inside], score[inside], k[inside]
         bary = np.column_stack([l0[inside], l1[inside], l2[inside]])
-        claimed, counts = np.unique(texel[score > _INSET], return_counts=True)
-        claims[claimed] = np.minimum(claims[claimed] + np.minimum(counts, 2), 2)
+        claimed = np.unique(texel[score > _INSET], return_counts=True)
         order = np.lexsort((score, texel))
         last = order[np.r_[texel[order][1:] != texel[order][:-1], True]]
-        better = score[last].astype(np.float32) > best_score[texel[last]]
-        chosen = last[better]
-        best_score[texel[chosen]] = score[chosen]
-        best_tri[texel[chosen]] = k[chosen]
-        best_bary[texel[chosen]] = bary[chosen]
+        return texel[last], score[last].astype(np.float32), k[last], bary[last], claimed
+
+    # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
+    spans = list(zip(bounds[:-1], bounds[1:]))
+    for g in range(0, len(spans), 2 * workers()):
+        for texel, score, k, bary, (claimed, counts) in map_parallel(candidates, spans[g:g + 2 * workers()]):
+            claims[claimed] = np.minimum(claims[claimed] + np.minimum(counts, 2), 2)
+            better = score > best_score[texel]
+            texel = texel[better]
+            best_score[texel] = score[better]
+            best_tri[texel] = k[better]
+            best_bary[texel] = bary[better]
     texels = np.flatnonzero(best_tri >= 0)
     bary = np.clip(best_bary[texels].astype(np.float64), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)

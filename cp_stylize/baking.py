@@ -79,7 +79,7 @@ def _closest_in_triangle_2d(q, a, b, c):
 
 
 def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None, progress=None,
-                  texels=None, matrix=None):
+                  texels=None, matrix=None, limit=None):
     """Image of band values laid out on a UV atlas.
 
     Parameters
@@ -109,6 +109,9 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     matrix : SplitMatrix, optional
         :func:`bake_matrix` of the band and these texels, in the values' type,
         made before (it depends on the band and atlas only).
+    limit : callable, optional
+        ``limit(colours)`` (M, C) -> (M, C), applied last to the baked texels'
+        colours and to ``fill`` (such as :meth:`cp_stylize.colours.ColourHull.limit`).
 
     Returns
     -------
@@ -167,7 +170,11 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
         found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
     if strokes is not None:
         found = strokes(points, found, progress=lambda fraction: report(share + (1.0 - share) * fraction))
-    image = np.full((size * size, channels), fill, dtype=values.dtype)
+    background = np.full((1, channels), fill, dtype=values.dtype)
+    if limit is not None:
+        found, background = limit(found), limit(background)
+    image = np.empty((size * size, channels), dtype=values.dtype)
+    image[:] = background
     image[texels] = found
     return image.reshape(size, size, channels)
 

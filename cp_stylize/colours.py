@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from .sparse import map_parallel
+
 __all__ = ["ColourHull", "TOLERANCE"]
 
 #: Colours are rounded to this grid before the hull is built (8 bits a channel): far
@@ -119,7 +121,8 @@ class ColourHull:
         values = np.asarray(values)
         out = values.copy()
         flat = out.reshape(-1, out.shape[-1])
-        for s in range(0, len(flat), _CHUNK):
+
+        def chunk(s):                      # the chunks write to rows of their own: side by side on the cores
             rows = np.arange(s, min(s + _CHUNK, len(flat)))
             x = flat[rows].astype(np.float64) - self.origin
             y = x @ self.basis
@@ -130,4 +133,6 @@ class ColourHull:
             moved_y, moved = self._onto(y)
             moved |= off
             flat[rows[moved]] = (self.origin + moved_y[moved] @ self.basis.T).astype(flat.dtype)
+
+        map_parallel(chunk, range(0, len(flat), _CHUNK))
         return out

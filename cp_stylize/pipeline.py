@@ -343,8 +343,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         matrix = band.structure("bake_out", (layout, result.dtype.str),
                                 lambda: bake_matrix(band, texels, result.dtype, progress=lambda f: report(0.95)))
     image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes,
-                          progress=lambda f: report(0.95 + 0.05 * f), texels=texels, matrix=matrix)
-    image = ColourHull(input_colours(colours, settings)).limit(image)
+                          progress=lambda f: report(0.95 + 0.05 * f), texels=texels, matrix=matrix,
+                          limit=ColourHull(input_colours(colours, settings)).limit)
     lap("bake_out")
     report(1.0)
     return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
@@ -360,7 +360,10 @@ SECONDS_STEP_PER_POINT = 4e-8
 #: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
 SECONDS_TENSOR_PER_POINT = 3e-7
 #: ... per triangle for the closest point search (it meets every triangle near each block) ...
-SECONDS_PER_TRIANGLE = 6e-5
+SECONDS_PER_TRIANGLE = 4.3e-5
+#: ... per triangle that xatlas unwraps, where the mesh has no UVs (it grows faster than linearly
+#: beyond some 100,000 triangles) ...
+SECONDS_UNWRAP_PER_TRIANGLE = 2e-4
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
 SECONDS_PER_TEXEL = 3.4e-6
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
@@ -376,15 +379,19 @@ BAKED_SHARE = 0.6
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
 BYTES_PER_BAND_POINT = 1650
 #: ... a triangle (the closest point search's candidate pairs), a texel of the atlas ...
-BYTES_PER_TRIANGLE = 1400
+BYTES_PER_TRIANGLE = 500
 BYTES_PER_TEXEL = 128
+#: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
+#: indices on the baked share and the margin) ...
+BYTES_KEPT_PER_TEXEL = 680
 #: ... and the libraries a Python process with NumPy and SciPy holds.
 BYTES_PER_RUN = 200 * 2**20
 
 
-def estimate_run(n_points, settings, channels=3, triangles=0):
+def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False):
     """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
-    ``n_points`` band points around a mesh of ``triangles``."""
+    ``n_points`` band points around a mesh of ``triangles``; ``keep``: with a :class:`RunCache`, which
+    also holds the bake-out's interpolation at its peak; ``unwrap``: xatlas makes the atlas."""
     from .diffusion import PAPER_CFL
     from .heat_flow import time_steps
 
@@ -395,10 +402,14 @@ def estimate_run(n_points, settings, channels=3, triangles=0):
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
     texels = settings.image_size ** 2
     seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
+    if unwrap:
+        seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE
     if settings.strokes > 0:
         steps = 2 * streak_steps(settings.stroke_length, settings.stroke_width)
         seconds += BAKED_SHARE * texels * steps * SECONDS_STROKE_STEP + n_points * SECONDS_STROKE_FIELD_PER_POINT
     nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
+        nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
     return seconds, nbytes
 
 
@@ -412,12 +423,13 @@ class RunEstimate:
     seconds: float
 
 
-def estimate(vertices, faces, settings, channels=3):
-    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings``."""
+def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False):
+    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings`` (``keep``: with a cache;
+    ``unwrap``: the mesh has no UVs, so xatlas makes its atlas)."""
     centre, scale = normalisation(vertices, faces)
     vertices = np.asarray(vertices, dtype=np.float64)
     a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
     area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
     n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
-    seconds, nbytes = estimate_run(n, settings, channels, len(faces))
+    seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap)
     return RunEstimate(settings.spacing / scale, n, nbytes, seconds)

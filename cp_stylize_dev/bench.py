@@ -17,8 +17,24 @@ the time of one closest point extension of the state, ``band.extend`` on
 (N, C), times the number of steps: the work no scheme of the closest point
 method can skip.  A table of single heat steps on the unit sphere follows.
 
-``--quick`` runs coarse grids in well under a minute.  Speed targets are
-checked here, never in the tests.
+Then the scale cases, fast scheme only, each in a process of its own, with
+the demo's Suzanne at several subdivision levels (normalised to length 2,
+h = 0.008 unless said):
+
+- ``scan``: 1,007,616 triangles (subdivision 5), Starry Night; its closest
+  point search is timed against the same search on 15,744 triangles;
+- ``high``: subdivision 2 at the High grid (h = 0.005), Starry Night;
+- ``atlas4096``: subdivision 3, Gaussian Blur into a 4096 x 4096 atlas;
+- ``rerun``: subdivision 2, Denoise (EED), then the same with twice the time
+  and then Starry Night, each with the first run's :class:`~cp_stylize.cache.RunCache`;
+- ``no_uvs``: a UV sphere of 102,400 triangles without UVs, so that xatlas
+  makes the atlas.
+
+Each reports its stages, peak memory and the run estimate the add-on uses
+for its limits; a table of the targets follows.
+
+``--quick`` runs coarse grids in well under a minute, without the scale
+cases.  Speed targets are checked here, never in the tests.
 """
 
 from __future__ import annotations
@@ -137,8 +153,91 @@ def run_suzanne(scheme, quick, data):
     return result.band_size, steps, times, covered, limit
 
 
-def worker(case, scheme, quick, data, out):
+# -- the scale cases ----------------------------------------------------------------------
+
+#: Subdivision levels of Suzanne, preset, grid spacing and atlas size of each scale case.
+SCALE = {
+    "scan": {"levels": 5, "preset": "starry_night", "h": 0.008, "size": 1024},
+    "high": {"levels": 2, "preset": "starry_night", "h": 0.005, "size": 1024},
+    "atlas4096": {"levels": 3, "preset": "gaussian_blur", "h": 0.008, "size": 4096},
+    "rerun": {"levels": 2, "preset": "denoise_eed", "h": 0.008, "size": 1024},
+    "no_uvs": {"levels": None, "preset": "denoise_eed", "h": 0.008, "size": 1024},
+}
+
+
+def _closest_points_seconds(vertices, faces, h, stencil):
+    """Seconds of the closest point search alone (the band's grid points and their closest points)."""
+    from cp_stylize.band import band_width
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.pipeline import normalisation
+
+    centre, scale = normalisation(vertices, faces)
+    mesh = TriangleMesh((vertices - centre) * scale, faces)
+    start = time.perf_counter()
+    for _ in mesh.band_points(h, band_width(h, stencil=stencil) * 1.01):
+        pass
+    return time.perf_counter() - start
+
+
+def _scale_inputs(case, data):
+    from cp_stylize.mesh import parametric_mesh
+    from cp_stylize.pipeline import ColourInput, Texture
+    from cp_stylize.surfaces import Sphere
+
+    if case == "no_uvs":
+        vertices, faces, _ = parametric_mesh(Sphere().point, 320, 160)
+        rng = np.random.default_rng(0)
+        corners = rng.random((len(faces), 3, 3)).astype(np.float32)
+        return vertices, faces, None, ColourInput(corner_colours=corners)
+    arrays = np.load(data)
+    colours = ColourInput(textures=[Texture(arrays["image"], arrays["uvs"], np.ones(len(arrays["faces"]), bool))])
+    return arrays["vertices"], arrays["faces"], arrays["uvs"], colours
+
+
+def run_scale(case, data, base=None):
+    """One scale case in this process: its figures as a dict."""
+    from cp_stylize.cache import RunCache
+    from cp_stylize.pipeline import estimate, stencil_for, stylize
+    from cp_stylize.presets import load_preset
+
+    spec = SCALE[case]
+    vertices, faces, uvs, colours = _scale_inputs(case, data)
+    settings = load_preset(spec["preset"]).replace(spacing=spec["h"], image_size=spec["size"])
+    cache = RunCache() if case == "rerun" else None
+    guess = estimate(vertices, faces, settings, keep=cache is not None, unwrap=uvs is None)
+    start = time.perf_counter()
+    result = stylize(vertices, faces, colours, settings, uvs=uvs, cache=cache)
+    figures = {"case": case, "triangles": int(len(faces)), "points": int(result.band_size),
+               "seconds": dict(result.timings, total=time.perf_counter() - start), "peak_mb": _peak_mb(),
+               "estimate_seconds": guess.seconds, "estimate_mb": guess.bytes / 2**20,
+               "covered": float(result.atlas.coverage.mean()), "generated_atlas": bool(result.atlas.generated)}
+    if case == "scan":
+        figures["closest_points"] = _closest_points_seconds(vertices, faces, spec["h"], stencil_for(settings.mode))
+        if base is not None:
+            small = np.load(base)
+            figures["closest_points_16k"] = _closest_points_seconds(small["vertices"], small["faces"], spec["h"],
+                                                                    stencil_for(settings.mode))
+    if case == "rerun":
+        again = []
+        for label, changed in (
+                (f"{spec['preset']}, twice the time", settings.replace(T=2 * settings.T)),
+                ("starry_night", load_preset("starry_night").replace(spacing=spec["h"], image_size=spec["size"]))):
+            start = time.perf_counter()
+            rerun = stylize(vertices, faces, colours, changed, uvs=uvs, cache=cache)
+            total = time.perf_counter() - start
+            again.append({"preset": label, "seconds": total,
+                          "timings": rerun.timings, "reused": list(cache.reused),
+                          "overhead": total - rerun.timings["diffusion"]})
+        figures["reruns"] = again
+        figures["kept_mb"] = cache.nbytes() / 2**20
+    return figures
+
+
+def worker(case, scheme, quick, data, out, base=None):
     """Run one case with one scheme; print its figures as JSON and save its image to ``out``."""
+    if case in SCALE:
+        print(json.dumps(run_scale(case, data, base)))
+        return
     if case == "torus":
         points, steps, times, image, extend = run_torus(scheme, quick)
     else:
@@ -151,11 +250,14 @@ def worker(case, scheme, quick, data, out):
 # -- the driver ---------------------------------------------------------------------------
 
 
-def suzanne_arrays(folder, log):
-    """The demo's Suzanne as ``folder/suzanne.npz`` (see :func:`cp_stylize_dev.demo.save_mesh_arrays`),
-    made in a process of its own; None, logged, where Blender's Python module cannot make it."""
-    path = os.path.join(folder, "suzanne.npz")
-    code = f"from cp_stylize_dev.demo import save_mesh_arrays; save_mesh_arrays({path!r})"
+def suzanne_arrays(folder, log, levels=2):
+    """The demo's Suzanne with ``levels`` of subdivision as ``folder/suzanne<levels>.npz`` (see
+    :func:`cp_stylize_dev.demo.save_mesh_arrays`), made in a process of its own; None, logged, where
+    Blender's Python module cannot make it."""
+    path = os.path.join(folder, f"suzanne{levels}.npz")
+    if os.path.exists(path):
+        return path
+    code = f"from cp_stylize_dev.demo import save_mesh_arrays; save_mesh_arrays({path!r}, levels={levels})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=_root())
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
@@ -168,12 +270,14 @@ def _root():
     return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def _run_worker(case, scheme, quick, data, out):
+def _run_worker(case, scheme, quick, data, out, base=None):
     cmd = [sys.executable, "-m", "cp_stylize_dev.bench", "--worker", case, scheme, out]
     if quick:
         cmd.append("--quick")
     if data:
         cmd += ["--data", data]
+    if base:
+        cmd += ["--base", base]
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=_root())
     if done.returncode != 0:
         raise RuntimeError(f"the {case} {scheme} run failed:\n{done.stderr}")
@@ -204,14 +308,14 @@ def heat_steps(spacings=(0.05, 0.025), steps=20, repeat=3, log=print):
     return rows
 
 
-def run(quick=False, json_path=None, cases=("torus", "suzanne"), log=print):
+def run(quick=False, json_path=None, cases=("torus", "suzanne") + tuple(SCALE), log=print):
     """Run the benchmark; returns its figures (also written to ``json_path`` if given)."""
-    report = {"cores": workers(), "quick": bool(quick), "runs": [], "cases": {}}
+    report = {"cores": workers(), "quick": bool(quick), "runs": [], "cases": {}, "scale": {}}
     log(f"cp_stylize bench{' --quick' if quick else ''}: {workers()} core(s)")
     with tempfile.TemporaryDirectory() as folder:
-        data = suzanne_arrays(folder, log) if "suzanne" in cases else None
+        data = suzanne_arrays(folder, log) if "suzanne" in cases or not quick else None
         for case in cases:
-            if case == "suzanne" and data is None:
+            if case not in ("torus", "suzanne") or (case == "suzanne" and data is None):
                 continue
             images = {}
             for scheme in SCHEMES:
@@ -229,7 +333,18 @@ def run(quick=False, json_path=None, cases=("torus", "suzanne"), log=print):
                 "limit_seconds": fast["extend_seconds"] * fast["steps"],
                 "fast_over_limit": fast["seconds"]["diffusion"] / (fast["extend_seconds"] * fast["steps"]),
             }
-    _table(report, log)
+        _table(report, log)
+        for case in cases if not quick else ():
+            if case not in SCALE:
+                continue
+            levels = SCALE[case]["levels"]
+            mesh = suzanne_arrays(folder, log, levels) if levels is not None else None
+            if levels is not None and mesh is None:
+                continue
+            log(f"  scale case {case} ...")
+            report["scale"][case] = _run_worker(case, "fast", False, mesh, os.devnull,
+                                                base=data if case == "scan" else None)
+        _scale_table(report, log)
     log("\nclosest point heat step on the unit sphere (tricubic E, 7-point L, float32)")
     report["heat_steps"] = [dict(zip(("h", "points", "build_s", "step_s_grey", "step_s_rgb"), row))
                             for row in heat_steps((0.1, 0.05) if quick else (0.05, 0.025),
@@ -239,6 +354,64 @@ def run(quick=False, json_path=None, cases=("torus", "suzanne"), log=print):
             json.dump(report, f, indent=2)
         log(f"\nwrote {json_path}")
     return report
+
+
+#: The scale targets: (what, figure from the report, target, unit).
+def _targets(report):
+    scale, cases = report["scale"], report["cases"]
+    rows = []
+    if "scan" in scale and "closest_points_16k" in scale["scan"]:
+        s = scale["scan"]
+        rows.append(("closest points, 1M over 16k triangles", s["closest_points"] / s["closest_points_16k"], 2.0, "x"))
+    if "scan" in scale:
+        rows.append(("1M-triangle scan, end to end", scale["scan"]["seconds"]["total"], 15.0, "s"))
+        rows.append(("1M-triangle scan, peak", scale["scan"]["peak_mb"] / 1024, 2.0, "GiB"))
+    if "high" in scale:
+        rows.append(("High on Suzanne, peak", scale["high"]["peak_mb"] / 1024, 2.0, "GiB"))
+    if "no_uvs" in scale:
+        rows.append((f"atlas of {scale['no_uvs']['triangles']:,} triangles without UVs (target: 500k)",
+                     scale["no_uvs"]["seconds"]["atlas"], 30.0, "s"))
+    if "atlas4096" in scale:
+        rows.append(("4096 x 4096 bake-out", scale["atlas4096"]["seconds"]["bake_out"], 4.0, "s"))
+    if "rerun" in scale:
+        for r in scale["rerun"]["reruns"]:
+            rows.append((f"re-run ({r['preset']}) beyond its diffusion", r["overhead"], 1.5, "s"))
+    for name, s in scale.items():
+        for what, measured, guess in (("time", s["seconds"]["total"], s["estimate_seconds"]),
+                                      ("peak", s["peak_mb"], s["estimate_mb"])):
+            rows.append((f"estimate of {name}'s {what}, off by", 100 * abs(guess / measured - 1), 30.0, "%"))
+    for name, c in cases.items():
+        rows.append((f"{name}: fast diffusion over the limit", c["fast_over_limit"], 2.0, "x"))
+    return rows
+
+
+def _scale_table(report, log):
+    if not report["scale"]:
+        return
+    stages = ("atlas", "band", "bake_in", "diffusion", "bake_out", "total")
+    log(f"\n{'case':<10} {'triangles':>10} {'points':>10} " + " ".join(f"{s + ' s':>11}" for s in stages)
+        + f" {'peak MB':>8} {'est. s':>7} {'est. MB':>8}")
+    for name, s in report["scale"].items():
+        cells = " ".join(f"{s['seconds'].get(k, 0.0):11.2f}" for k in stages)
+        log(f"{name:<10} {s['triangles']:10,d} {s['points']:10,d} {cells} {s['peak_mb']:8.0f} "
+            f"{s['estimate_seconds']:7.1f} {s['estimate_mb']:8.0f}")
+    s = report["scale"]
+    if "scan" in s:
+        log(f"\nscan: closest points {s['scan']['closest_points']:.2f} s"
+            + (f" (15,744 triangles: {s['scan']['closest_points_16k']:.2f} s)" if "closest_points_16k" in s["scan"]
+               else ""))
+    if "no_uvs" in s:
+        log(f"no_uvs: xatlas atlas covers {100 * s['no_uvs']['covered']:.1f} % of the texels")
+    if "rerun" in s:
+        log(f"rerun: first run {s['rerun']['seconds']['total']:.2f} s; kept for re-runs {s['rerun']['kept_mb']:.0f} MB")
+        for r in s["rerun"]["reruns"]:
+            log(f"  {r['preset']}: {r['seconds']:.2f} s, of it diffusion {r['timings']['diffusion']:.2f} s, "
+                f"bake-out {r['timings']['bake_out']:.2f} s; reused {', '.join(r['reused'])}")
+    rows = _targets(report)
+    report["targets"] = [{"what": w, "measured": m, "target": t, "unit": u, "met": m <= t} for w, m, t, u in rows]
+    log(f"\n{'target':<58} {'measured':>10} {'target':>8}  met")
+    for w, m, t, u in rows:
+        log(f"{w:<58} {m:10.2f} {t:8.1f} {u:<3} {'yes' if m <= t else 'no'}")
 
 
 def _table(report, log):
@@ -265,8 +438,9 @@ def main(argv=None):
     parser.add_argument("--worker", nargs=3, metavar=("CASE", "SCHEME", "OUT"))
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--data")
+    parser.add_argument("--base")
     args = parser.parse_args(argv)
-    worker(*args.worker[:2], args.quick, args.data, args.worker[2])
+    worker(*args.worker[:2], args.quick, args.data, args.worker[2], args.base)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ def estimate(obj, settings, depsgraph=None):
 
     stylize.check_object(obj)
     mesh = meshdata.read(obj, depsgraph, corners=False)
-    guess = estimate_run(mesh.vertices, mesh.triangles, settings)
+    guess = estimate_run(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not obj.data.uv_layers)
     return guess.spacing, guess.band_points, guess.bytes, guess.seconds
 
 

@@ -310,7 +310,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     if settings.stroke_direction == "axis":
         # the axis is the object's; the core sees the mesh in world space
         settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
-    guess = estimate(mesh.vertices, mesh.triangles, settings)
+    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not mesh.uv_maps)
     check_limits(guess, output)
     slot_count = len(obj.material_slots)
     used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
