@@ -173,7 +173,7 @@ class TriangleSearch:
         self._radius = float((reach / m).max()) * (1 + 1e-9)
         self._tree = cKDTree(self._samples)
 
-    def _descend(self, centres, deltas, parents, cells, tris, width=None):
+    def _descend(self, centres, deltas, parents, cells, tris, width=None, regular=None):
         """Closest triangles of the points at the bottom of a hierarchy of cells.
 
         Parameters
@@ -189,6 +189,12 @@ class TriangleSearch:
             ``width``: every face within ``width`` of one of them).
         width : float, optional
             Drop the points farther than this from the mesh.
+        regular : list over levels, optional
+            For a level ``l > 0`` whose cells are the eight children of each
+            cell of level ``l - 1`` (child ``8 p + j`` of parent ``p``), all at
+            the same offsets from their parents' centres and of one radius:
+            those offsets (8, 3); None for other levels.  Their bounds are then
+            one small matrix product instead of gathers.
 
         Returns
         -------
@@ -247,25 +253,48 @@ class TriangleSearch:
             nearest = np.zeros(n, dtype=np.int64)
             nearest[cells[best]] = tris[best]
             count = np.bincount(cells, minlength=n)
-            first = np.cumsum(count) - count
             nxt = level + 1
             parent, centre, radius = parents[nxt], centres[nxt], deltas[nxt]
-            offset = centre - centres[level][:, parent]
-            step = np.sqrt((offset * offset).sum(axis=0))
-            run, pos = expand_runs(count[parent])
-            src = first[parent[run]] + pos
-            ahead = g[0][src] * offset[0][run] + g[1][src] * offset[1][run] + g[2][src] * offset[2][run]
-            bound = d[src] + np.maximum(ahead - slack[src] * step[run], -step[run]) - radius[run]
             kids = np.flatnonzero(count[parent] > 0)
             _, _, _, up2 = self._closest(centre[:, kids], nearest[parent[kids]])
             upper = np.full(len(parent), np.inf)
             upper[kids] = np.sqrt(up2) + radius[kids]
-            keep = bound <= upper[run] + eps
-            if width is not None:
-                keep &= bound <= width + eps
-            cells, tris = run[keep], tris[src[keep]]
+            if regular is not None and regular[nxt] is not None:
+                cells, tris = self._children(regular[nxt], radius[0], cells, tris, d, g, slack, upper, width)
+            else:
+                first = np.cumsum(count) - count
+                offset = centre - centres[level][:, parent]
+                step = np.sqrt((offset * offset).sum(axis=0))
+                run, pos = expand_runs(count[parent])
+                src = first[parent[run]] + pos
+                ahead = g[0][src] * offset[0][run] + g[1][src] * offset[1][run] + g[2][src] * offset[2][run]
+                bound = d[src] + np.maximum(ahead - slack[src] * step[run], -step[run]) - radius[run]
+                keep = bound <= upper[run] + eps
+                if width is not None:
+                    keep &= bound <= width + eps
+                cells, tris = run[keep], tris[src[keep]]
             level = nxt
             _, _, r, d2 = self._closest(centre[:, cells], tris)
+
+    def _children(self, offsets, radius, cells, tris, d, g, slack, upper, width):
+        """The pairs (child, triangle) that the bounds of :meth:`_descend` keep, for children ``8 p + j``
+        of every parent ``p`` at the same ``offsets`` (8, 3) and of one ``radius``; sorted by child, and
+        within a child in their parent's order."""
+        eps = 1e-9 * self._scale
+        step = np.sqrt((offsets * offsets).sum(axis=1))
+        bound = np.multiply.outer(g[0], offsets[:, 0])                     # (pairs, 8): g . o, then the bound
+        bound += np.multiply.outer(g[1], offsets[:, 1])
+        bound += np.multiply.outer(g[2], offsets[:, 2])
+        bound -= np.multiply.outer(slack, step)
+        np.maximum(bound, -step, out=bound)
+        bound += (d - radius)[:, None]
+        limit = upper.reshape(-1, 8)[cells]                                # the children's upper bounds
+        if width is not None:
+            np.minimum(limit, width, out=limit)
+        slot, pair = np.nonzero((bound <= limit + eps).T)                  # slot major: 8 sorted runs
+        kept = 8 * cells[pair] + slot
+        order = np.argsort(kept, kind="stable")                            # merges the eight runs
+        return kept[order], tris[pair[order]]
 
     def _levels(self, x):
         """Finest cell side and number of coarser levels for the query points ``x``."""
@@ -382,8 +411,11 @@ class TriangleSearch:
         local = np.stack(np.meshgrid(*[np.arange(_BLOCK)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
         half = _BLOCK // 2
         corner = np.stack(np.meshgrid(*[np.arange(2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-        sub_of_point = ((local // half) * [4, 2, 1]).sum(axis=1)
+        # a block's points by sub-block, each sub-block's in the same order: point 8 s + j of a block is
+        # child j of its sub-block s, as the sub-block 8 b + s is child s of block b
+        local = local[np.argsort(((local // half) * [4, 2, 1]).sum(axis=1), kind="stable")]
         sub_offset = half * corner + 0.5 * (half - 1)
+        regular = [None, h * (sub_offset - 0.5 * (_BLOCK - 1)), h * (local[:8] - 0.5 * (half - 1))]
         # chunks of blocks with a bounded number of points and (sub-block, triangle) pairs
         per_block = np.bincount(pair_block, minlength=len(blocks))
         pair_start = np.r_[0, np.cumsum(per_block)]
@@ -405,9 +437,8 @@ class TriangleSearch:
             deltas = [np.full(nb, 0.5 * (_BLOCK - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
                       np.full(nb * 8, 0.5 * (half - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
                       np.zeros(len(ijk))]
-            parents = [None, np.repeat(np.arange(nb), 8),
-                       (np.arange(nb)[:, None] * 8 + sub_of_point[None, :]).ravel()]
-            face, _ = self._descend(centres, deltas, parents, cells, tris, width=width)
+            parents = [None, np.repeat(np.arange(nb), 8), np.repeat(np.arange(nb * 8), 8)]
+            face, _ = self._descend(centres, deltas, parents, cells, tris, width=width, regular=regular)
             keep = np.flatnonzero(face >= 0)
             if len(keep) == 0:
                 return None
