@@ -82,6 +82,12 @@ class RunCache:
             self._parts[name] = (key, value)
         return value
 
+    def part(self, name):
+        """The part kept under ``name``, or None."""
+        with self._lock:
+            kept = self._parts.get(name)
+        return None if kept is None else kept[1]
+
     def clear(self):
         """Drop every part."""
         with self._lock:

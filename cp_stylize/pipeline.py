@@ -354,18 +354,18 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
 #: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
 #: the README's Performance section (fast scheme): seconds per band point to build the band and
 #: the scheme's operators and to bake in and out ...
-SECONDS_SETUP_PER_POINT = {"gaussian": 6e-6, "other": 1e-5}
+SECONDS_SETUP_PER_POINT = {"gaussian": 6e-6, "other": 8e-6}
 #: ... per band point and colour channel for one step (an extension and a stencil product) ...
 SECONDS_STEP_PER_POINT = 4e-8
 #: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
 SECONDS_TENSOR_PER_POINT = 3e-7
 #: ... per triangle for the closest point search (it meets every triangle near each block) ...
-SECONDS_PER_TRIANGLE = 4.3e-5
+SECONDS_PER_TRIANGLE = 2.3e-5
 #: ... per triangle that xatlas unwraps, where the mesh has no UVs (it grows faster than linearly
 #: beyond some 100,000 triangles) ...
 SECONDS_UNWRAP_PER_TRIANGLE = 2e-4
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
-SECONDS_PER_TEXEL = 3.4e-6
+SECONDS_PER_TEXEL = 2.2e-6
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
 SECONDS_PER_RUN = 2.0
 

@@ -197,6 +197,8 @@ def _scale_inputs(case, data):
 def run_scale(case, data, base=None):
     """One scale case in this process: its figures as a dict."""
     from cp_stylize.cache import RunCache
+    from cp_stylize.diffusion import PAPER_CFL
+    from cp_stylize.heat_flow import time_steps
     from cp_stylize.pipeline import estimate, stencil_for, stylize
     from cp_stylize.presets import load_preset
 
@@ -230,6 +232,10 @@ def run_scale(case, data, base=None):
                           "overhead": total - rerun.timings["diffusion"]})
         figures["reruns"] = again
         figures["kept_mb"] = cache.nbytes() / 2**20
+        # the first re-run's diffusion against the limit: its operators were kept, so it is its steps
+        steps, _ = time_steps(2 * settings.T, PAPER_CFL * settings.spacing**2)
+        figures["rerun_limit"] = _extend_seconds(cache.part("band"), 3) * steps
+        figures["rerun_fast_over_limit"] = again[0]["timings"]["diffusion"] / figures["rerun_limit"]
     return figures
 
 
@@ -382,6 +388,8 @@ def _targets(report):
             rows.append((f"estimate of {name}'s {what}, off by", 100 * abs(guess / measured - 1), 30.0, "%"))
     for name, c in cases.items():
         rows.append((f"{name}: fast diffusion over the limit", c["fast_over_limit"], 2.0, "x"))
+    if "rerun" in scale:
+        rows.append(("rerun: the re-run's diffusion over the limit", scale["rerun"]["rerun_fast_over_limit"], 2.0, "x"))
     return rows
 
 
