@@ -131,6 +131,7 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "storage")
         layout.prop(settings, "memory_limit")
         layout.prop(settings, "time_limit")
+        layout.prop(settings, "keep")
         layout.separator()
         layout.operator("object.cp_stylize", icon="BRUSH_DATA")
         layout.operator("object.cp_stylize_estimate", icon="INFO")

@@ -125,6 +125,11 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         name="Time Limit", description="Refuse runs whose estimated time is above this (minutes)",
         default=15.0, min=0.5, max=24 * 60.0, precision=1,
     )
+    keep: bpy.props.BoolProperty(
+        name="Keep for Re-runs", description="Keep the band, its operators and the atlas in memory after a run, so "
+                                             "that the next run on the same mesh and grid starts at the filter",
+        default=True,
+    )
 
     def relative_spacing(self):
         return self.spacing if self.quality == "CUSTOM" else QUALITY_SPACING[self.quality]
@@ -151,7 +156,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from .stylize import Output
 
         return Output(image_name=self.image_name, target=self.target, storage=self.storage,
-                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60)
+                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep)
 
     def from_settings(self, settings):
         """Set the filter properties from StylizeSettings (a loaded preset); output settings stay."""

@@ -70,6 +70,7 @@ class Output:
     storage: str = "PACK"             # or "SAVE" (a PNG next to the .blend)
     memory_limit: float = 8 * 2**30   # bytes
     time_limit: float = 15 * 60       # seconds
+    keep: bool = True                 # keep what the run builds before its filter for the next run
 
 
 @dataclasses.dataclass
@@ -261,15 +262,15 @@ def _read_colours(obj, mesh, slots):
     return colours, to_bake
 
 
-def _bake_atlas(obj, mesh, settings, new_atlas):
+def _bake_atlas(obj, mesh, settings, new_atlas, keep=True):
     """The output atlas a procedural bake reads through: the mesh's render UV map if usable, else a new one."""
     from ..atlas import UnusableUVs, uv_atlas
     from ..mesh import TriangleMesh
 
-    from ..cache import digest
+    from ..cache import RunCache, digest
 
     uvs = mesh.uv_maps.get(mesh.render_uv)
-    cache = kept()
+    cache = kept() if keep else RunCache()
     cache.start(digest(mesh.vertices, mesh.triangles))      # the key of the core's own parts
     try:
         return cache.get("baked_atlas", (digest(uvs), settings.image_size, new_atlas),
@@ -310,7 +311,9 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     if settings.stroke_direction == "axis":
         # the axis is the object's; the core sees the mesh in world space
         settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
-    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not mesh.uv_maps)
+    if not output.keep:
+        release()
+    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps)
     check_limits(guess, output)
     slot_count = len(obj.material_slots)
     used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
@@ -325,7 +328,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         from ..pipeline import Texture
 
         bake.check_bakeable(obj)
-        atlas = _bake_atlas(obj, mesh, settings, new_atlas)
+        atlas = _bake_atlas(obj, mesh, settings, new_atlas, output.keep)
         own = not atlas.generated
         baked = bake.bake(obj, to_bake, settings.image_size, uv_name=mesh.render_uv if own else None,
                           uvs=None if own else atlas.uvs, loops=mesh.loops)
@@ -346,7 +349,7 @@ def run_core(job, progress=None, log=None):
     from ..pipeline import stylize
 
     global _kept_bytes
-    cache = kept()
+    cache = kept() if job.output.keep else None
     try:
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
                              atlas=job.atlas, new_atlas=job.new_atlas, directions=job.mesh.directions,
@@ -354,8 +357,8 @@ def run_core(job, progress=None, log=None):
     except UnusableUVs as err:
         raise StylizeError(_no_atlas_message(job.object_name, err)) from None
     finally:
-        _kept_bytes = cache.nbytes()
-    job.reused = list(cache.reused)
+        _kept_bytes = 0 if cache is None else cache.nbytes()
+    job.reused = [] if cache is None else list(cache.reused)
     return job.result
 
 

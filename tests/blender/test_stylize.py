@@ -369,3 +369,16 @@ def test_a_re_run_reuses_the_band_and_gives_a_fresh_runs_image(addon, capfd):
     assert stylize.kept_bytes() > 0
     bpy.ops.wm.read_homefile(use_empty=True)
     assert stylize.kept_bytes() == 0
+
+
+def test_without_keep_a_run_keeps_nothing_and_frees_what_was_kept(addon):
+    from cp_stylize.blender import stylize
+
+    _textured_sphere()
+    addon.mode, addon.time = "gaussian", 1e-4
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert stylize.kept_bytes() > 0
+    addon.keep = False
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    assert stylize.kept_bytes() == 0 and len(stylize.kept()) == 0
+    assert bpy.ops.cp_stylize.release.poll() is False          # nothing to free
