@@ -23,7 +23,7 @@ from scipy import ndimage
 from .arrays import count
 from .atlas import Atlas, check_mesh
 from .band import apply
-from .sparse import SplitMatrix, map_parallel
+from .sparse import SplitMatrix, map_parallel, workers
 from .texture import texel_centres
 
 __all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail"]
@@ -205,38 +205,62 @@ def atlas_points(mesh, atlas, margin):
     """
     size = atlas.size
     corners = mesh.vertices[mesh.faces]                        # (K, 3, 3) kept faces
-    texels = [atlas.texels]
-    points = [np.empty((len(atlas.texels), 3))]
+    n = len(atlas.texels)
+    ring, near = _margin_ring(atlas.coverage, margin) if margin > 0 and n else (np.zeros(0, np.int64),) * 2
+    texels = np.concatenate([atlas.texels, ring])
+    points = np.empty((len(texels), 3))
+    faces = np.empty(len(texels), dtype=np.int64)
+    barys = np.empty((len(texels), 3))
+    faces[:n], barys[:n] = atlas.face, atlas.bary          # which sheet each point is on (Band._one_sheet)
     kept = mesh.kept_index(atlas.face)
-    for s in range(0, len(kept), _POINTS):         # in blocks: no (M, 3, 3) corners at once
-        part = slice(s, s + _POINTS)
-        points[0][part] = np.einsum("mi,mij->mj", atlas.bary[part], corners[kept[part]])
-    faces, barys = [atlas.face], [atlas.bary]          # which sheet each point is on (Band._one_sheet)
 
-    covered = atlas.coverage
-    if margin > 0 and len(atlas.texels):
-        distance, nearest = ndimage.distance_transform_edt(~covered, return_indices=True)
-        ring = np.flatnonzero((distance > 0) & (distance <= margin))
-        if len(ring):
-            owner = np.full(size * size, -1, dtype=np.int64)
-            owner[atlas.texels] = atlas.face
-            near = nearest[0].ravel()[ring] * size + nearest[1].ravel()[ring]
-            face = owner[near]
-            row, col = np.divmod(ring, size)
-            q = np.column_stack([(col + 0.5) / size, (row + 0.5) / size])
-            uv = atlas.uvs[face]
-            border = _closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
-            out = np.linalg.norm(q - border, axis=1) * size
-            step = np.minimum(1.0, _REACH / np.where(out > 0, out, 1.0))
-            q = border + step[:, None] * (q - border)
-            bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
-            plane = np.einsum("mi,mij->mj", bary, corners[mesh.kept_index(face)])
-            texels.append(ring)
-            snapped, _, on_face, on_bary = mesh.closest_point_on_faces(plane)
-            points.append(snapped)
-            faces.append(on_face)
-            barys.append(on_bary)
-    return tuple(np.concatenate(a) for a in (texels, points, faces, barys))
+    def covered(s):                                        # in blocks: no (M, 3, 3) corners at once
+        part = slice(s, min(s + _POINTS, n))
+        points[part] = np.einsum("mi,mij->mj", atlas.bary[part], corners[kept[part]])
+
+    map_parallel(covered, range(0, n, _POINTS))
+    if len(ring):
+        owner = np.full(size * size, -1, dtype=np.int64)
+        owner[atlas.texels] = atlas.face
+        face = owner[near]
+        row, col = np.divmod(ring, size)
+        q = np.column_stack([(col + 0.5) / size, (row + 0.5) / size])
+        uv = atlas.uvs[face]
+        border = _closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+        out = np.linalg.norm(q - border, axis=1) * size
+        step = np.minimum(1.0, _REACH / np.where(out > 0, out, 1.0))
+        q = border + step[:, None] * (q - border)
+        bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+        plane = np.einsum("mi,mij->mj", bary, corners[mesh.kept_index(face)])
+        points[n:], _, faces[n:], barys[n:] = mesh.closest_point_on_faces(plane)
+    return texels, points, faces, barys
+
+
+def _margin_ring(covered, margin):
+    """The uncovered texels within ``margin`` of a covered one (flat indices, in row order) and the flat
+    index of the nearest covered texel of each.
+
+    The distance transform runs in strips of rows, side by side on the cores:
+    a strip grown by ``margin + 1`` rows each way holds every covered texel
+    that lies within ``margin`` of its own rows.
+    """
+    size = covered.shape[1]
+    step = max(64, -(-covered.shape[0] // (2 * workers())))
+
+    def strip(r0):
+        r1 = min(r0 + step, covered.shape[0])
+        a, b = max(0, r0 - margin - 1), min(covered.shape[0], r1 + margin + 1)
+        if not covered[a:b].any():
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        distance, nearest = ndimage.distance_transform_edt(~covered[a:b], return_indices=True)
+        own = slice(r0 - a, r1 - a)
+        d = distance[own].ravel()
+        ring = np.flatnonzero((d > 0) & (d <= margin))
+        near = (nearest[0][own].ravel()[ring] + a) * size + nearest[1][own].ravel()[ring]
+        return ring + r0 * size, near
+
+    parts = map_parallel(strip, range(0, covered.shape[0], step))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
 def lay_detail(result, sampled, original, strength=1.0):

@@ -339,7 +339,7 @@ class Band:
             indices[s:e][~inside] = -1
             if normals is not None and self.normals is not None:
                 n = self._one_sheet(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
-                                    normals[s:e], None if pieces is None else pieces[s:e])
+                                    normals[s:e], None if pieces is None else pieces[s:e], corner)
                 if moved is not None:
                     moved.append(n)     # list.append is atomic: the chunks run on several threads
 
@@ -392,7 +392,33 @@ class Band:
                                           None if self.pieces is None else self.pieces[r])
         return out
 
-    def _one_sheet(self, data, indices, x, t, nodes, normals, pieces):
+    def _may_cross(self, indices, corner, normals, pieces):
+        """Which stencils (M,) might hold a point of another sheet than their surface point (see
+        :meth:`_one_sheet`); the others surely do not, and skip the sheet test.
+
+        Per distinct stencil (``corner``): the mean ``m`` of its points' unit
+        normals and the widest angle ``theta`` between ``m`` and any of them.
+        A surface point whose normal ``q`` lies within ``90 - theta`` degrees of
+        ``m`` (``q.m > sin theta``, with a margin) makes an acute angle with every
+        normal of the stencil, so no point faces the other way; with every point
+        on the surface point's own piece, none is on another sheet.
+        """
+        cells, first, which = np.unique(corner, return_index=True, return_inverse=True)
+        safe = np.maximum(indices[first], 0)                    # (U, K); missing points only widen the cone
+        columns = [c[safe] for c in self._normal_columns]       # n_x, n_y, n_z (U, K), single precision
+        m = np.stack([c.sum(axis=1) for c in columns], axis=1)
+        m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-30)
+        spread = np.min(columns[0] * m[:, 0:1] + columns[1] * m[:, 1:2] + columns[2] * m[:, 2:3], axis=1)
+        reach = np.where(spread > 0, np.sqrt(np.maximum(1.0 - spread * spread, 0.0)), np.inf) + 1e-3
+        q = np.asarray(normals, dtype=np.float32)
+        clean = np.einsum("ij,ij->i", q, m[which.ravel()]) > reach[which.ravel()]
+        if pieces is not None:
+            piece = self.pieces[safe[:, 0]]
+            alike = np.all(self.pieces[safe] == piece[:, None], axis=1)
+            clean &= alike[which.ravel()] & (pieces == piece[which.ravel()])
+        return ~clean
+
+    def _one_sheet(self, data, indices, x, t, nodes, normals, pieces, corner=None):
         """Keep each interpolation stencil on the sheet of the surface its point lies on (in place).
 
         Where a surface comes back near itself (the two sides of a thin ear,
@@ -413,9 +439,14 @@ class Band:
         weights.  Returns the number of rows changed.
         """
         p = self.degree
-        other = self._other_sheet(indices, x, normals, pieces)
-        rows = np.flatnonzero(other.any(axis=1) & (indices.min(axis=1) >= 0))
+        if self._normal_columns is None:
+            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
+        test = np.arange(len(indices)) if corner is None else np.flatnonzero(
+            self._may_cross(indices, corner, normals, pieces))
+        other = self._other_sheet(indices[test], x[test], normals[test], None if pieces is None else pieces[test])
+        rows = np.flatnonzero(other.any(axis=1) & (indices[test].min(axis=1) >= 0))
         other = other[rows]
+        rows = test[rows]
         if not len(rows):
             return 0
         lower = (p - 1) // 2                      # the cell's corners are nodes lower and lower + 1 per axis
