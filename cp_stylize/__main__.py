@@ -26,7 +26,8 @@ def _paper(args):
 
 
 def _bench(args):
-    _tool("bench").run(quick=args.quick, json_path=args.json)
+    bench = _tool("bench")
+    bench.run(quick=args.quick, json_path=args.json, **({"cases": tuple(args.cases)} if args.cases else {}))
 
 
 def _looks(args):
@@ -56,6 +57,8 @@ def main(argv=None):
     p = sub.add_parser("bench", help="time both diffusion schemes on the torus and on Suzanne")
     p.add_argument("--quick", action="store_true", help="coarse grids, for a smoke run (under a minute)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON to FILE")
+    p.add_argument("--cases", nargs="+", metavar="CASE",
+                   help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs (default: all)")
     p.set_defaults(func=_bench)
     p = sub.add_parser("looks", help="measure the presets' looks on the forest-photo sphere (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")
