@@ -337,7 +337,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                           result[band.inner, :3].astype(np.float64) @ LUMA, settings.palette,
                           settings.palette_weights or None, strength=settings.strokes, length=settings.stroke_length,
                           width=settings.stroke_width, spread=settings.noise_spread, seed=settings.seed)
-    texels = cache.get("texels", layout, lambda: atlas_points(mesh, atlas, settings.margin))
+    texels = cache.get("texels", layout,
+                       lambda: tuple(read_only(a) for a in atlas_points(mesh, atlas, settings.margin)))
     matrix = None
     if band.kept is not None and len(texels[0]) <= KEEP_BAKE_TEXELS:
         matrix = band.structure("bake_out", (layout, result.dtype.str),
