@@ -357,9 +357,7 @@ class Band:
         """Whether the band points ``nodes`` (M, K; -1 for none) lie on another sheet than the surface
         points ``x`` (M, 3) with ``normals`` (and ``pieces``): (M, K) bool.  See :meth:`_one_sheet`."""
         safe = np.maximum(nodes, 0)
-        if self._normal_columns is None:
-            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
-        nx, ny, nz = self._normal_columns      # single precision, by component: (M, K) gathers only
+        nx, ny, nz = self._normals_by_axis()   # single precision, by component: (M, K) gathers only
         q = np.asarray(normals, dtype=np.float32)
         dot = nx[safe] * q[:, 0:1]
         dot += ny[safe] * q[:, 1:2]
@@ -392,6 +390,12 @@ class Band:
                                           None if self.pieces is None else self.pieces[r])
         return out
 
+    def _normals_by_axis(self):
+        """The band points' normals as three contiguous single-precision rows (made once)."""
+        if self._normal_columns is None:
+            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
+        return self._normal_columns
+
     def _may_cross(self, indices, corner, normals, pieces):
         """Which stencils (M,) might hold a point of another sheet than their surface point (see
         :meth:`_one_sheet`); the others surely do not, and skip the sheet test.
@@ -405,7 +409,7 @@ class Band:
         """
         cells, first, which = np.unique(corner, return_index=True, return_inverse=True)
         safe = np.maximum(indices[first], 0)                    # (U, K); missing points only widen the cone
-        columns = [c[safe] for c in self._normal_columns]       # n_x, n_y, n_z (U, K), single precision
+        columns = [c[safe] for c in self._normals_by_axis()]    # n_x, n_y, n_z (U, K), single precision
         m = np.stack([c.sum(axis=1) for c in columns], axis=1)
         m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-30)
         spread = np.min(columns[0] * m[:, 0:1] + columns[1] * m[:, 1:2] + columns[2] * m[:, 2:3], axis=1)
@@ -439,8 +443,6 @@ class Band:
         weights.  Returns the number of rows changed.
         """
         p = self.degree
-        if self._normal_columns is None:
-            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
         test = np.arange(len(indices)) if corner is None else np.flatnonzero(
             self._may_cross(indices, corner, normals, pieces))
         other = self._other_sheet(indices[test], x[test], normals[test], None if pieces is None else pieces[test])
