@@ -23,8 +23,12 @@ NumPy as that Blender bundles it, and SciPy, xatlas and pytest pinned as in
 (needs root).  Every entry tests the same linux-x64 zip (``--zip``, else built
 first with ``tools/build_extension.py``): its tests install it with Blender's
 own installer and stylize an image-textured and a procedural object.
-Screenshots of the window tests go to ``.matrix/screenshots``.  The exit
-status is non-zero if any entry fails.
+Screenshots of the window tests go to ``.matrix/screenshots``.  Each entry
+prints the free disk space before it starts; ``--clean`` removes a module
+entry's virtual environment once it has run (pip's cache keeps the wheels, so
+a later run installs them again without downloading), which keeps the matrix
+within about 3 GB of disk beyond the chroot.  The exit status is non-zero if
+any entry fails.
 """
 
 import argparse
@@ -93,8 +97,14 @@ def summary(output):
     return {kind: int(n) for n, kind in re.findall(r"(\d+) (passed|failed|errors?|skipped|xfailed)", lines[-1])}
 
 
-def run_entry(name, zip_path):
+def free_space():
+    """Free disk space where the matrix works, as text (``12.3 GiB free``)."""
+    return f"{shutil.disk_usage(WORK).free / 2**30:.1f} GiB free"
+
+
+def run_entry(name, zip_path, clean=False):
     description, bpy, numpy, where, tests = ENTRIES[name]
+    print(f"== {name}: {description} ({free_space()} in {WORK})", flush=True)
     env = dict(os.environ, CP_STYLIZE_ZIP=os.path.relpath(zip_path, ROOT),
                CP_STYLIZE_SCREENSHOTS=os.path.relpath(os.path.join(WORK, "screenshots"), ROOT))
     pytest_args = ["-q", "-p", "no:cacheprovider", *tests]
@@ -120,6 +130,8 @@ def run_entry(name, zip_path):
     counts = summary(proc.stdout)
     ok = proc.returncode == 0 and counts.get("passed", 0) > 0 and not counts.get("failed") \
         and not counts.get("error") and not counts.get("errors")
+    if clean and where == "venv":
+        shutil.rmtree(os.path.join(WORK, f"bpy-{bpy}"), ignore_errors=True)
     tail = "\n".join(proc.stdout.splitlines()[-15:])
     print(tail, flush=True)
     return {"name": name, "blender": description, "tests": " ".join(tests), "ok": ok, "counts": counts,
@@ -139,6 +151,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", nargs="+", choices=list(ENTRIES), help="entries to run (default: all)")
     parser.add_argument("--zip", help="the linux-x64 extension zip to test (default: build one)")
+    parser.add_argument("--clean", action="store_true",
+                        help="remove each module entry's virtual environment once it has run")
     args = parser.parse_args(argv)
     os.makedirs(WORK, exist_ok=True)
     zip_path = args.zip
@@ -151,7 +165,7 @@ def main(argv=None):
     if os.path.commonpath([zip_path, ROOT]) != ROOT:   # the chroot sees only the checkout
         shutil.copy2(zip_path, WORK)
         zip_path = os.path.join(WORK, os.path.basename(zip_path))
-    results = [run_entry(name, zip_path) for name in (args.only or ENTRIES)]
+    results = [run_entry(name, zip_path, args.clean) for name in (args.only or ENTRIES)]
     print("\n" + table(results))
     for r in results:
         if not r["ok"]:
