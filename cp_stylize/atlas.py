@@ -30,6 +30,7 @@ import importlib.util
 import numpy as np
 
 from .arrays import check_uvs, count, expand_runs, split_counts
+from .charts import projected_charts
 from .sparse import map_parallel, workers
 
 __all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "check_mesh"]
@@ -44,6 +45,12 @@ _INSET = 1e-3
 _MIN_AREA = 1e-6
 #: UV coordinates may leave [0, 1] by this much.
 _UV_SLACK = 1e-6
+#: New atlases of meshes with up to this many faces are xatlas unwraps (about 20 s at 100,000 faces
+#: on two cores, and minutes beyond); larger meshes get charts projected along the axes
+#: (:mod:`cp_stylize.charts`, a few seconds at 500,000 faces).
+XATLAS_FACES = 100_000
+#: The ways :func:`uv_atlas` makes a new atlas.
+UNWRAPPERS = ("auto", "xatlas", "charts")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -97,13 +104,14 @@ def _check_size(size):
     return count(size, "size", unit=" number of texels")
 
 
-def _rasterise(uv, size):
+def _rasterise(uv, size, overlapping=False):
     """Texels covered by UV triangles ``uv`` (K, 3, 2).
 
     Returns the covered texels (M,), the triangle chosen for each (the one
     whose edges its centre is farthest inside), the barycentric coordinates
     (M, 3), and the number of texels that lie inside two or more triangles
-    by more than ``_INSET`` texels.
+    by more than ``_INSET`` texels; with ``overlapping``, also the triangles
+    that hold such a texel (sorted, distinct).
     """
     p = uv * size - 0.5                                  # texel centres at integers
     x0, y0, x1, y1, x2, y2 = (p[:, k, a] for k in range(3) for a in range(2))
@@ -144,15 +152,19 @@ def _rasterise(uv, size):
         inside = np.flatnonzero(score >= -_EDGE)
         texel, score, k = texel[inside], score[inside], k[inside]
         bary = np.column_stack([l0[inside], l1[inside], l2[inside]])
-        claimed = np.unique(texel[score > _INSET], return_counts=True)
+        deep = score > _INSET
+        claimed = np.unique(texel[deep], return_counts=True)
         order = np.lexsort((score, texel))
         last = order[np.r_[texel[order][1:] != texel[order][:-1], True]]
-        return texel[last], score[last].astype(np.float32), k[last], bary[last], claimed
+        held = (texel[deep], k[deep]) if overlapping else None
+        return texel[last], score[last].astype(np.float32), k[last], bary[last], claimed, held
 
     # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
     spans = list(zip(bounds[:-1], bounds[1:]))
+    holders = []
     for g in range(0, len(spans), 2 * workers()):
-        for texel, score, k, bary, (claimed, counts) in map_parallel(candidates, spans[g:g + 2 * workers()]):
+        for texel, score, k, bary, (claimed, counts), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
+            holders.append(held)
             claims[claimed] = np.minimum(claims[claimed] + np.minimum(counts, 2), 2)
             better = score > best_score[texel]
             texel = texel[better]
@@ -162,7 +174,11 @@ def _rasterise(uv, size):
     texels = np.flatnonzero(best_tri >= 0)
     bary = np.clip(best_bary[texels].astype(np.float64), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
-    return texels, best_tri[texels].astype(np.int64), bary, int(np.count_nonzero(claims > 1))
+    raster = texels, best_tri[texels].astype(np.int64), bary, int(np.count_nonzero(claims > 1))
+    if not overlapping:
+        return raster
+    held = [k[claims[t] > 1] for t, k in holders]
+    return raster + (np.unique(np.concatenate(held)).astype(np.int64) if held else np.zeros(0, np.int64),)
 
 
 def uv_problems(mesh, uvs, size):
@@ -221,8 +237,8 @@ class UnusableUVs(ValueError):
         super().__init__(f"the mesh has no usable UVs ({problems})" + (f" and {why}" if why else ""))
 
 
-def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=True):
-    """The UV layout of the output texture: the mesh's own UVs if usable, else a new xatlas unwrap.
+def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=True, unwrap="auto"):
+    """The UV layout of the output texture: the mesh's own UVs if usable, else a new one.
 
     Parameters
     ----------
@@ -233,12 +249,17 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
     uvs : array_like, shape (F, 3, 2), optional
         The mesh's own per-corner UVs for its input faces.
     force_new : bool
-        Unwrap with xatlas even when ``uvs`` are usable.
+        Make a new atlas even when ``uvs`` are usable.
     padding : int, optional
-        Texels between xatlas charts; default ``max(2, size // 256)``.
+        Texels between charts; default ``max(2, size // 256)``.
     allow_new : bool
         False: raise :class:`UnusableUVs` instead of unwrapping when ``uvs``
         are missing or not usable.
+    unwrap : {"auto", "xatlas", "charts"}
+        How a new atlas is made: an xatlas unwrap, or charts projected along
+        the axes (:func:`cp_stylize.charts.projected_charts`); ``"auto"``
+        takes xatlas for meshes of up to :data:`XATLAS_FACES` kept faces where
+        it is installed, and charts otherwise.
 
     Returns
     -------
@@ -248,9 +269,11 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
     -----
     xatlas unwraps the kept faces (seam vertices duplicated) and packs the
     charts into one square atlas of about ``size`` texels with room around
-    every chart for bilinear filtering.  Its UVs are mapped back to the
-    corners of the input faces; a skipped (degenerate) face, which covers no
-    texel, gets the UVs of other corners at the same vertices.
+    every chart for bilinear filtering; projected charts are made in time
+    linear in the mesh, with ``padding`` texels around each.  The UVs are
+    mapped back to the corners of the input faces; a skipped (degenerate)
+    face, which covers no texel, gets the UVs of other corners at the same
+    vertices.  :attr:`Atlas.reason` says which way the atlas was made.
     """
     mesh = check_mesh(mesh)
     size = _check_size(size)
@@ -269,12 +292,25 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
         problems = "it has none" if uvs is None else reason
     if not allow_new:
         raise UnusableUVs(problems)
-    if importlib.util.find_spec("xatlas") is None:
+    if unwrap not in UNWRAPPERS:
+        raise ValueError(f"unwrap must be one of {', '.join(map(repr, UNWRAPPERS))}, got {unwrap!r}")
+    has_xatlas = importlib.util.find_spec("xatlas") is not None
+    if unwrap == "xatlas" and not has_xatlas:
         raise UnusableUVs(problems, "xatlas, which makes new UV maps, is not installed for this platform and "
                                     "Python: add a UV map to the mesh (for example with Smart UV Project)")
-    new = _xatlas_uvs(mesh, size, padding=padding)
-    texels, tri, bary, _ = _rasterise(new[mesh.face_index], size)
-    return Atlas(uvs=new, size=size, generated=True, reason=reason,
+    if padding is None:
+        padding = max(2, size // 256)
+    padding = count(padding, "padding", minimum=0, unit=" number of texels")
+    if unwrap == "xatlas" or (unwrap == "auto" and has_xatlas and len(mesh.faces) <= XATLAS_FACES):
+        corner = _xatlas_uvs(mesh, size, padding)
+        texels, tri, bary, _ = _rasterise(corner, size)
+        how = "xatlas unwrapped it"
+    else:
+        corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding, _rasterise)
+        why = ("" if unwrap == "charts" else f" (xatlas is not installed)" if not has_xatlas
+               else f" (it has more than {XATLAS_FACES:,} faces, too many for xatlas)")
+        how = f"{charts:,} charts were projected along the axes{why}"
+    return Atlas(uvs=_input_uvs(mesh, corner), size=size, generated=True, reason=f"{reason}; {how}",
                  texels=texels, face=mesh.face_index[tri], bary=bary)
 
 
@@ -282,8 +318,8 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
 _RETIRED = []
 
 
-def _xatlas_uvs(mesh, size, *, padding=None):
-    """Per-corner UVs (F, 3, 2) of the input faces from an xatlas unwrap of the kept faces.
+def _xatlas_uvs(mesh, size, padding):
+    """Per-corner UVs (K, 3, 2) of the kept faces from an xatlas unwrap.
 
     An ``xatlas.Atlas`` is not destroyed as soon as it is done: its destructor
     wakes its worker threads without their lock and joins them, and a worker
@@ -295,9 +331,6 @@ def _xatlas_uvs(mesh, size, *, padding=None):
     import xatlas
 
     del _RETIRED[:]
-    if padding is None:
-        padding = max(2, size // 256)
-    padding = count(padding, "padding", minimum=0, unit=" number of texels")
     faces = mesh.faces
     atlas = xatlas.Atlas()
     _RETIRED.append(atlas)
@@ -317,7 +350,13 @@ def _xatlas_uvs(mesh, size, *, padding=None):
     indices = indices.astype(np.int64)
     if indices.shape != faces.shape or not np.array_equal(vmapping[indices], faces):
         raise RuntimeError("xatlas returned faces that do not match the mesh's faces")
-    corner = uv.astype(np.float64)[indices]                     # (K, 3, 2)
+    return uv.astype(np.float64)[indices]
+
+
+def _input_uvs(mesh, corner):
+    """Per-corner UVs (F, 3, 2) of the input faces from those of the kept faces ``corner`` (K, 3, 2): a
+    skipped (degenerate) face, which covers no texel, gets the UVs of other corners at its vertices."""
+    faces = mesh.faces
     out = np.zeros((mesh.n_input_faces, 3, 2))
     out[mesh.face_index] = corner
     skipped = np.setdiff1d(np.arange(mesh.n_input_faces), mesh.face_index)

@@ -23,7 +23,7 @@ import typing
 
 import numpy as np
 
-from .atlas import UnusableUVs, uv_atlas
+from .atlas import XATLAS_FACES, UnusableUVs, uv_atlas
 from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
 from .cache import RunCache, digest
 from .colours import ColourHull
@@ -362,9 +362,9 @@ SECONDS_STEP_PER_POINT = 4e-8
 SECONDS_TENSOR_PER_POINT = 3e-7
 #: ... per triangle for the closest point search (it meets every triangle near each block) ...
 SECONDS_PER_TRIANGLE = 2.3e-5
-#: ... per triangle that xatlas unwraps, where the mesh has no UVs (it grows faster than linearly
-#: beyond some 100,000 triangles) ...
-SECONDS_UNWRAP_PER_TRIANGLE = 2e-4
+#: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
+#: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
+SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 2e-4, "charts": 7e-6}
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
 SECONDS_PER_TEXEL = 1.8e-6
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
@@ -392,7 +392,7 @@ BYTES_PER_RUN = 200 * 2**20
 def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False):
     """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
     ``n_points`` band points around a mesh of ``triangles``; ``keep``: with a :class:`RunCache`, which
-    also holds the bake-out's interpolation at its peak; ``unwrap``: xatlas makes the atlas."""
+    also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made."""
     from .diffusion import PAPER_CFL
     from .heat_flow import time_steps
 
@@ -404,7 +404,7 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     texels = settings.image_size ** 2
     seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
     if unwrap:
-        seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE
+        seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
     if settings.strokes > 0:
         steps = 2 * streak_steps(settings.stroke_length, settings.stroke_width)
         seconds += BAKED_SHARE * texels * steps * SECONDS_STROKE_STEP + n_points * SECONDS_STROKE_FIELD_PER_POINT
@@ -426,7 +426,7 @@ class RunEstimate:
 
 def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False):
     """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings`` (``keep``: with a cache;
-    ``unwrap``: the mesh has no UVs, so xatlas makes its atlas)."""
+    ``unwrap``: the mesh has no UVs, so a new atlas is made)."""
     centre, scale = normalisation(vertices, faces)
     vertices = np.asarray(vertices, dtype=np.float64)
     a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))

@@ -54,3 +54,12 @@ def torus():
     vertices, faces, _ = parametric_mesh(Torus(1.0, 0.4).point, 64, 24, periodic_u=True, periodic_v=True)
     mesh = TriangleMesh(vertices, faces)
     return mesh, Band.build(mesh, 0.05), uv_atlas(mesh, 512)
+
+
+@pytest.fixture(scope="module", params=["xatlas", "charts"])
+def unwrapped_torus(request, torus):
+    """The torus, its band and a new atlas of each kind: xatlas's, and charts projected along the axes."""
+    from cp_stylize.atlas import uv_atlas
+
+    mesh, band, atlas = torus
+    return mesh, band, atlas if request.param == "xatlas" else uv_atlas(mesh, 512, unwrap="charts")

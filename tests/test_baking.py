@@ -40,8 +40,8 @@ def test_a_texture_baked_in_and_out_through_the_mesh_uvs_comes_back(uv_sphere):
     assert covered.mean() > 0.9
     assert psnr(out[covered], image[covered]) >= 35.0
 
-def test_a_mesh_without_uvs_round_trips_through_a_new_atlas(torus):
-    mesh, band, atlas = torus
+def test_a_mesh_without_uvs_round_trips_through_a_new_atlas(unwrapped_torus):
+    mesh, band, atlas = unwrapped_torus
     assert atlas.generated and uv_problems(mesh, atlas.uvs, atlas.size) == []
     values = colour(band.cp).astype(np.float32)
     out = bake_to_atlas(band, values, atlas)
@@ -51,8 +51,8 @@ def test_a_mesh_without_uvs_round_trips_through_a_new_atlas(torus):
     # and back in: closest points near island borders read margin texels
     assert psnr(sample_texture(band, atlas.uvs, out), values) >= 35.0
 
-def test_both_sides_of_a_seam_show_the_same_colour_after_diffusion(torus):
-    mesh, band, atlas = torus
+def test_both_sides_of_a_seam_show_the_same_colour_after_diffusion(unwrapped_torus):
+    mesh, band, atlas = unwrapped_torus
     p = band.cp
     stripes = np.column_stack([np.sin(9 * p[:, 0]) > 0, np.cos(7 * p[:, 1] + 3 * p[:, 2]) > 0])
     stripes = stripes.astype(np.float32)
@@ -80,8 +80,8 @@ def test_both_sides_of_a_seam_show_the_same_colour_after_diffusion(torus):
         across = bilinear(image, (1 - s) * ends[2][seam] + s * ends[3][seam])
         assert np.abs(side - across).max() <= 1 / 255
 
-def test_the_margin_continues_each_island(torus):
-    mesh, band, atlas = torus
+def test_the_margin_continues_each_island(unwrapped_torus):
+    mesh, band, atlas = unwrapped_torus
     out = bake_to_atlas(band, colour(band.cp), atlas, margin=4, fill=-1.0)
     near = atlas.coverage
     ring = ndimage.binary_dilation(near, iterations=4) & ~near

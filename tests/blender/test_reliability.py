@@ -207,15 +207,20 @@ def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_befor
         "fix the UV map, or apply the modifiers that change its topology (or make its mesh local) first")
 
 
-def test_without_xatlas_a_mesh_without_uvs_is_refused_before_the_band_is_built(addon, monkeypatch):
+def test_without_xatlas_a_mesh_without_uvs_gets_an_atlas_of_projected_charts(addon, monkeypatch):
     import sys
 
-    _bare_sphere_with_material()
+    obj = sphere(material=procedural_material())
+    remove_uvs(obj)
     monkeypatch.setitem(sys.modules, "xatlas", None)   # as on a platform the zip has no xatlas wheel for
-    assert _refused_before_the_band_is_built(monkeypatch) == (
-        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
-        "xatlas, which makes new UV maps, is not installed for this platform and Python: add a "
-        "UV map to the mesh (for example with Smart UV Project)")
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["cp_stylize_atlas"]
+    assert after["materials"]["Checker"] == before["materials"]["Checker"]
+    points, colours = texel_points(obj, stylized_image(obj), uv_name="cp_stylize_atlas")
+    grey = colours.mean(axis=1)
+    assert len(points) > 0.3 * stylized_image(obj).size[0] ** 2 and grey.max() - grey.min() > 0.3
 
 
 # -- 3. a failure after the core has run leaves no trace -----------------------------------------
