@@ -355,25 +355,25 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
 #: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
 #: the README's Performance section (fast scheme): seconds per band point to build the band and
 #: the scheme's operators and to bake in and out ...
-SECONDS_SETUP_PER_POINT = {"gaussian": 6e-6, "other": 8e-6}
+SECONDS_SETUP_PER_POINT = {"gaussian": 2.7e-6, "other": 3.6e-6}
 #: ... per band point and colour channel for one step (an extension and a stencil product) ...
-SECONDS_STEP_PER_POINT = 4e-8
+SECONDS_STEP_PER_POINT = 1.8e-8
 #: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
-SECONDS_TENSOR_PER_POINT = 3e-7
+SECONDS_TENSOR_PER_POINT = 1.35e-7
 #: ... per triangle for the closest point search (it meets every triangle near each block) ...
-SECONDS_PER_TRIANGLE = 2.3e-5
+SECONDS_PER_TRIANGLE = 2e-5
 #: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
 #: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
-SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 2e-4, "charts": 7e-6}
+SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 2e-4, "charts": 3e-6}
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
-SECONDS_PER_TEXEL = 1.8e-6
+SECONDS_PER_TEXEL = 8e-7
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
-SECONDS_PER_RUN = 2.0
+SECONDS_PER_RUN = 0.9
 
 #: Brush strokes: seconds per texel and step of its streak, per band point for their line field,
 #: and the share of an atlas's texels that are baked (islands and margin).
-SECONDS_STROKE_STEP = 2.5e-7
-SECONDS_STROKE_FIELD_PER_POINT = 2e-6
+SECONDS_STROKE_STEP = 1.5e-7
+SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
 BAKED_SHARE = 0.6
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
