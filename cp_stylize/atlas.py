@@ -306,7 +306,10 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
         texels, tri, bary, _ = _rasterise(corner, size)
         how = "xatlas unwrapped it"
     else:
-        corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding, _rasterise)
+        try:
+            corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding, _rasterise)
+        except ValueError as err:
+            raise UnusableUVs(problems, str(err)) from None
         why = ("" if unwrap == "charts" else f" (xatlas is not installed)" if not has_xatlas
                else f" (it has more than {XATLAS_FACES:,} faces, too many for xatlas)")
         how = f"{charts:,} charts were projected along the axes{why}"

@@ -11,8 +11,8 @@ meshes :func:`projected_charts` makes an atlas whose cost is linear:
 2. Charts are the pieces of faces with the same axis that are connected
    through their edges.
 3. A chart is projected orthogonally on its axis's plane (turned so that its
-   box is wider than high), and the boxes, with ``padding`` texels around
-   every chart, are packed on shelves at the largest scale that fits.  Every
+   box is wider than high), and the boxes, ``padding`` texels apart, are
+   packed on shelves at the largest scale that fits.  Every
    chart has the same texels per unit of its projection.
 4. Where a chart's projection folds over itself (a crumpled patch of a scan:
    two faces of the chart hold the same texel centre), the faces involved
@@ -70,6 +70,12 @@ def projected_charts(mesh, size, padding, rasterise):
         ``rasterise(uv, size)`` of the result.
     charts : int
         The number of charts.
+
+    Raises
+    ------
+    ValueError
+        When the charts do not fit in the atlas, or still overlap after
+        every round of splitting; the message says which.
     """
     vertices, faces = mesh.vertices, mesh.faces
     a, b, c = (vertices[faces[:, k]] for k in range(3))
@@ -99,7 +105,9 @@ def projected_charts(mesh, size, padding, rasterise):
         else:
             alone |= folded
             chart = _pieces(links, np.where(alone, chart.max() + 1 + np.arange(len(faces)), chart))
-    raise RuntimeError(f"projected charts still overlap after {_ROUNDS + _LAST_ROUNDS} rounds")
+    raise ValueError(f"its surface folds over itself in too many places for charts projected along the axes "
+                     f"(they still overlapped after {_ROUNDS + _LAST_ROUNDS} rounds of splitting): add a UV map "
+                     f"(for example with Smart UV Project)")
 
 
 def _edge_links(faces):

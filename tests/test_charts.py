@@ -86,8 +86,10 @@ def test_charts_that_cannot_fit_are_refused_with_the_cause():
     # 400 separate triangles: each a chart, with its padding
     corners = rng.random((400, 1, 3)) * 10 + np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0.01]])
     mesh = TriangleMesh(corners.reshape(-1, 3), np.arange(1200).reshape(-1, 3))
-    with pytest.raises(ValueError, match="400 charts with 2 texels of padding do not fit in 32 x 32 texels"):
+    with pytest.raises(atlas_module.UnusableUVs) as refused:
         uv_atlas(mesh, 32, unwrap="charts")
+    assert str(refused.value) == ("the mesh has no usable UVs (it has none) and 400 charts with 2 texels of padding "
+                                  "do not fit in 32 x 32 texels: choose a larger image size")
 
 
 def test_an_unknown_unwrapper_is_refused(torus):
