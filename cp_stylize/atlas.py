@@ -45,9 +45,9 @@ _INSET = 1e-3
 _MIN_AREA = 1e-6
 #: UV coordinates may leave [0, 1] by this much.
 _UV_SLACK = 1e-6
-#: New atlases of meshes with up to this many faces are xatlas unwraps (about 20 s at 100,000 faces
-#: on two cores, and minutes beyond); larger meshes get charts projected along the axes
-#: (:mod:`cp_stylize.charts`, a few seconds at 500,000 faces).
+#: New atlases of meshes with up to this many faces are xatlas unwraps (14 s at 99,224 faces on two
+#: cores, covering 62 % of a sphere's texels, and minutes beyond); larger meshes get charts projected
+#: along the axes (:mod:`cp_stylize.charts`: 0.5 s and 55 % there, 1.5 s at 500,000 faces).
 XATLAS_FACES = 100_000
 #: The ways :func:`uv_atlas` makes a new atlas.
 UNWRAPPERS = ("auto", "xatlas", "charts")

@@ -364,7 +364,7 @@ SECONDS_TENSOR_PER_POINT = 1.35e-7
 SECONDS_PER_TRIANGLE = 2e-5
 #: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
 #: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
-SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 2e-4, "charts": 3e-6}
+SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 1.6e-4, "charts": 3e-6}
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
 SECONDS_PER_TEXEL = 8e-7
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
