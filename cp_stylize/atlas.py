@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import threading
 
 import numpy as np
 
@@ -36,7 +37,7 @@ from .sparse import map_parallel, workers
 __all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "check_mesh"]
 
 #: Texel centres rasterised at once.
-_TEXELS = 1 << 21
+_TEXELS = 1 << 20
 #: Inside test slack, in texels: a centre on an edge belongs to the triangle ...
 _EDGE = 1e-6
 #: ... but counts towards an overlap only this far inside.
@@ -134,6 +135,8 @@ def _rasterise(uv, size, overlapping=False):
     claims = np.zeros(size * size, dtype=np.uint8)
     bounds = split_counts(unit_cols, _TEXELS)
 
+    scratch = threading.local()                                         # one stamp array a worker thread
+
     def candidates(span):
         """The best triangle of each texel among the units ``span``, and the texels they claim."""
         s, e = span
@@ -151,21 +154,36 @@ def _rasterise(uv, size, overlapping=False):
         texel = unit_row[unit] * size + col + lo[t, 0]
         inside = np.flatnonzero(score >= -_EDGE)
         texel, score, k = texel[inside], score[inside], k[inside]
-        bary = np.column_stack([l0[inside], l1[inside], l2[inside]])
-        deep = score > _INSET
-        claimed = np.unique(texel[deep], return_counts=True)
-        order = np.lexsort((score, texel))
-        last = order[np.r_[texel[order][1:] != texel[order][:-1], True]]
+        l0, l1, l2 = l0[inside], l1[inside], l2[inside]
+        # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
+        # so only the centres near edges, and the overlaps, need a sort to find their best triangle
+        deep = np.flatnonzero(score > _INSET)
+        stamp = getattr(scratch, "stamp", None)                         # the last deep candidate of a texel
+        if stamp is None:
+            stamp = scratch.stamp = np.empty(size * size, dtype=np.int32)
+        stamp[texel[deep]] = np.arange(len(deep), dtype=np.int32)
+        twice = texel[deep[stamp[texel[deep]] != np.arange(len(deep))]]    # held deeply by two triangles
+        if len(twice):
+            keep = _best_of(texel, score)
+        else:
+            edge_ = np.flatnonzero(score <= _INSET)
+            at = stamp[texel[edge_]]
+            held = (at >= 0) & (at < len(deep))
+            held[held] = texel[deep[at[held]]] == texel[edge_[held]]     # a deep candidate beats it
+            edge_ = edge_[~held]
+            keep = np.concatenate([deep, edge_[_best_of(texel[edge_], score[edge_])]])
         held = (texel[deep], k[deep]) if overlapping else None
-        return texel[last], score[last].astype(np.float32), k[last], bary[last], claimed, held
+        bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
+        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (texel[deep], twice), held
 
     # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
     spans = list(zip(bounds[:-1], bounds[1:]))
     holders = []
     for g in range(0, len(spans), 2 * workers()):
-        for texel, score, k, bary, (claimed, counts), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
+        for texel, score, k, bary, (claimed, twice), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
             holders.append(held)
-            claims[claimed] = np.minimum(claims[claimed] + np.minimum(counts, 2), 2)
+            claims[claimed] = np.minimum(claims[claimed] + 1, 2)
+            claims[twice] = 2
             better = score > best_score[texel]
             texel = texel[better]
             best_score[texel] = score[better]
@@ -179,6 +197,12 @@ def _rasterise(uv, size, overlapping=False):
         return raster
     held = [k[claims[t] > 1] for t, k in holders]
     return raster + (np.unique(np.concatenate(held)).astype(np.int64) if held else np.zeros(0, np.int64),)
+
+
+def _best_of(texel, score):
+    """Positions of the best candidate of each distinct texel: the highest score, the last of equal ones."""
+    order = np.lexsort((score, texel))
+    return order[np.r_[texel[order][1:] != texel[order][:-1], True]] if len(order) else order
 
 
 def uv_problems(mesh, uvs, size):
