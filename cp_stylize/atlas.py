@@ -158,23 +158,25 @@ def _rasterise(uv, size, overlapping=False):
         # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
         # so only the centres near edges, and the overlaps, need a sort to find their best triangle
         deep = np.flatnonzero(score > _INSET)
+        deep_texel = texel[deep]
+        order = np.arange(len(deep), dtype=np.int32)
         stamp = getattr(scratch, "stamp", None)                         # the last deep candidate of a texel
         if stamp is None:
             stamp = scratch.stamp = np.empty(size * size, dtype=np.int32)
-        stamp[texel[deep]] = np.arange(len(deep), dtype=np.int32)
-        twice = texel[deep[stamp[texel[deep]] != np.arange(len(deep))]]    # held deeply by two triangles
+        stamp[deep_texel] = order
+        twice = deep_texel[stamp[deep_texel] != order]                   # held deeply by two triangles
         if len(twice):
             keep = _best_of(texel, score)
         else:
-            edge_ = np.flatnonzero(score <= _INSET)
-            at = stamp[texel[edge_]]
-            held = (at >= 0) & (at < len(deep))
-            held[held] = texel[deep[at[held]]] == texel[edge_[held]]     # a deep candidate beats it
-            edge_ = edge_[~held]
-            keep = np.concatenate([deep, edge_[_best_of(texel[edge_], score[edge_])]])
-        held = (texel[deep], k[deep]) if overlapping else None
+            near_edge = np.flatnonzero(score <= _INSET)
+            at = stamp[texel[near_edge]]
+            beaten = (at >= 0) & (at < len(deep))                       # stamp is not cleared: check it
+            beaten[beaten] = deep_texel[at[beaten]] == texel[near_edge[beaten]]   # a deep candidate wins
+            near_edge = near_edge[~beaten]
+            keep = np.concatenate([deep, near_edge[_best_of(texel[near_edge], score[near_edge])]])
+        held = (deep_texel, k[deep]) if overlapping else None
         bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
-        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (texel[deep], twice), held
+        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (deep_texel, twice), held
 
     # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
     spans = list(zip(bounds[:-1], bounds[1:]))
@@ -334,7 +336,7 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
             corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding, _rasterise)
         except ValueError as err:
             raise UnusableUVs(problems, str(err)) from None
-        why = ("" if unwrap == "charts" else f" (xatlas is not installed)" if not has_xatlas
+        why = ("" if unwrap == "charts" else " (xatlas is not installed)" if not has_xatlas
                else f" (it has more than {XATLAS_FACES:,} faces, too many for xatlas)")
         how = f"{charts:,} charts were projected along the axes{why}"
     return Atlas(uvs=_input_uvs(mesh, corner), size=size, generated=True, reason=f"{reason}; {how}",

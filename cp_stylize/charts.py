@@ -182,7 +182,8 @@ def _layout(flat, chart, size, padding):
     tall = extent[:, 1] > extent[:, 0]
     turn = tall[chart]
     local = flat - lo[chart][:, None, :]
-    local[turn] = np.stack([local[turn][..., 1], extent[chart[turn], 0][:, None] - local[turn][..., 0]], axis=2)
+    turned = local[turn]
+    local[turn] = np.stack([turned[..., 1], extent[chart[turn], 0][:, None] - turned[..., 0]], axis=2)
     extent[tall] = extent[tall][:, ::-1]
     scale, origin = _pack(extent, size, padding)
     return (local * scale + origin[chart][:, None, :]) / size
@@ -195,17 +196,16 @@ def _pack(extent, size, padding):
     top = size / max(float(extent.max()), 1e-300)
     if area > 0:
         top = min(top, size / np.sqrt(area))
-    low = 0.0
-    if _shelves(extent, top, size, padding) is not None:
-        low = top
-    else:
+    low, origin = top, _shelves(extent, top, size, padding)
+    if origin is None:
+        low = 0.0
         while top - low > _SCALE_TOLERANCE * top:
             mid = 0.5 * (low + top)
-            if _shelves(extent, mid, size, padding) is not None:
-                low = mid
+            packed = _shelves(extent, mid, size, padding)
+            if packed is not None:
+                low, origin = mid, packed
             else:
                 top = mid
-    origin = _shelves(extent, low, size, padding) if low > 0 else None
     if origin is None:
         raise ValueError(f"{len(extent)} charts with {padding} texels of padding do not fit in {size} x {size} "
                          f"texels: choose a larger image size")
