@@ -26,7 +26,7 @@ from .band import apply
 from .sparse import SplitMatrix, map_parallel, workers
 from .texture import texel_centres
 
-__all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail"]
+__all__ = ["bake_to_atlas", "bake_map", "Detail", "lay_detail", "texel_lengths"]
 
 #: Band interpolations at once (each builds 64 weights a point).
 _POINTS = 1 << 16
@@ -78,7 +78,7 @@ def _closest_in_triangle_2d(q, a, b, c):
     return np.where(inside[:, None], q, nearest)
 
 
-def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, strokes=None, progress=None,
+def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, paint=None, progress=None,
                   texels=None, matrix=None, limit=None):
     """Image of band values laid out on a UV atlas.
 
@@ -99,10 +99,13 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
         Lay the input's own detail, finer than the band, back over the
         result where the filter left it (:func:`lay_detail`): a run that
         changes nothing then gives back the input's colours texel for texel.
-    strokes : callable, optional
-        ``strokes(points, colours)``: the texels' colours (M, C) with brush
-        strokes laid over them at their surface points (M, 3), last
-        (:class:`cp_stylize.strokes.Strokes`).
+    paint : callable, optional
+        Paint laid over the texels last (:class:`cp_stylize.painting.Painting`):
+        ``paint(texels, colours, columns, progress)`` returns the texels'
+        colours (M, C) and the height (M,) the paint leaves, or None, given
+        :func:`atlas_points` ``texels``, the colours and the band columns
+        ``paint.columns`` (N, E) interpolated at the texels (M, E).  With
+        ``paint``, the height image comes back too.
     texels : tuple, optional
         :func:`atlas_points` ``(mesh, atlas, margin)``, made before (it depends
         on the mesh and atlas only).
@@ -117,6 +120,7 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     -------
     ndarray, shape (size, size, C)
         Row 0 at the bottom; float64 values stay float64, others give float32.
+        With ``paint``: ``(image, height)``, the height (size, size) or None.
 
     Notes
     -----
@@ -144,16 +148,23 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     margin = count(margin, "margin", minimum=0, unit=" number of texels")
     values = band.check_values(values)
     channels = 1 if values.ndim == 1 else values.shape[1]
+    extra = []
     if detail is not None:
         sampled = band.check_values(detail.sampled).reshape(band.size, -1)
         if sampled.shape[1] != channels:
             raise ValueError(f"the detail's sampled values have {sampled.shape[1]} channel(s), the values {channels}")
-        values = np.hstack([values.reshape(band.size, channels), sampled.astype(values.dtype)])
-    texels, points, faces, barys = atlas_points(mesh, atlas, margin) if texels is None else texels
+        extra.append(sampled)
+    columns = None if paint is None or paint.columns is None else np.asarray(paint.columns).reshape(band.size, -1)
+    if columns is not None:
+        extra.append(columns)
+    if extra:
+        values = np.hstack([values.reshape(band.size, channels)] + [e.astype(values.dtype) for e in extra])
+    texels = atlas_points(mesh, atlas, margin) if texels is None else texels
+    where, points, faces, barys = texels
     size = atlas.size
     found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
     report = progress or (lambda fraction: None)
-    share = 1.0 if strokes is None else 0.5          # of the progress, for the interpolation
+    share = 1.0 if paint is None else 0.5          # of the progress, for the interpolation
 
     if matrix is None:
         def interpolate(s):
@@ -165,18 +176,45 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, stro
     else:
         for j in range(found.shape[1]):
             found[:, j] = matrix @ np.ascontiguousarray(values.reshape(band.size, -1)[:, j])
+    colours = found[:, :channels]
     if detail is not None:
         original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
-        found = lay_detail(found[:, :channels], found[:, channels:], original[:, :channels], detail.strength)
-    if strokes is not None:
-        found = strokes(points, found, progress=lambda fraction: report(share + (1.0 - share) * fraction))
+        colours = lay_detail(colours, found[:, channels:2 * channels], original[:, :channels], detail.strength)
+    height = None
+    if paint is not None:
+        read = None if columns is None else found[:, found.shape[1] - columns.shape[1]:]
+        colours, height = paint(texels, colours, read, lambda f: report(share + (1.0 - share) * f))
     background = np.full((1, channels), fill, dtype=values.dtype)
     if limit is not None:
-        found, background = limit(found), limit(background)
+        colours, background = limit(colours), limit(background)
     image = np.empty((size * size, channels), dtype=values.dtype)
     image[:] = background
-    image[texels] = found
-    return image.reshape(size, size, channels)
+    image[where] = colours
+    image = image.reshape(size, size, channels)
+    if paint is None:
+        return image
+    if height is not None:
+        heights = np.zeros(size * size, dtype=np.float32)
+        heights[where] = height
+        height = heights.reshape(size, size)
+    return image, height
+
+
+def texel_lengths(mesh, atlas, faces):
+    """Each texel's length on the surface (M,), for texels of input ``faces`` (M,): the square root of
+    its face's area over the face's share of the atlas's area (UV triangles with no area count as
+    the largest texel of the others)."""
+    corners = mesh.vertices[mesh.input_faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    uv = atlas.uvs
+    uv_area = 0.5 * np.abs((uv[:, 1, 0] - uv[:, 0, 0]) * (uv[:, 2, 1] - uv[:, 0, 1])
+                           - (uv[:, 2, 0] - uv[:, 0, 0]) * (uv[:, 1, 1] - uv[:, 0, 1])) * atlas.size**2
+    length = np.sqrt(area / np.where(uv_area > 0, uv_area, np.inf))
+    flat = (uv_area <= 0) | ~np.isfinite(length) | (length <= 0)
+    if flat.all():
+        return np.full(len(faces), np.sqrt(mesh.area / max(len(atlas.texels), 1)))
+    length[flat] = length[~flat].max()
+    return length[np.asarray(faces)]
 
 
 def _rows(band, mesh, points, faces, barys, part, dtype):

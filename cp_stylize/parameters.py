@@ -10,7 +10,7 @@ these, so a new parameter or mode is an edit in this file.
 Units are those of an object normalised to a longest side of 2 (paper,
 section 4.5): ``"time"`` is a diffusion time in squared lengths, ``"length"``
 a length, ``"ratio"`` a number relative to the input's own contrast or a
-fraction.
+fraction, ``"count"`` a whole number.
 """
 
 from __future__ import annotations
@@ -32,13 +32,20 @@ class Parameter:
     minimum: float
     maximum: float
     default: float
-    unit: str = "ratio"      # "time", "length" or "ratio"
+    unit: str = "ratio"      # "time", "length", "ratio" or "count" (a whole number)
     precision: int = 6       # digits the panel shows
     step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
 
     def check(self, value):
-        """``value`` as a float, or ValueError naming the parameter, its limits and the value."""
-        return check_value(self.name, value, self.minimum, self.maximum)
+        """``value`` as a float (an int for a count), or ValueError naming the parameter, its limits and the
+        value."""
+        checked = check_value(self.name, value, self.minimum, self.maximum)
+        if self.unit == "count":
+            if checked != int(checked):
+                raise ValueError(f"{self.name} must be a whole number in [{self.minimum:g}, {self.maximum:g}], "
+                                 f"got {value!r}")
+            return int(checked)
+        return checked
 
 
 #: Relative slack of the limits: Blender stores the panel's values in single precision.
@@ -61,18 +68,32 @@ RUN = {p.name: p for p in (
                                          "side of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
     Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
                                          "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
-    Parameter("noise_spread", "Spread", "Tone noise: how far from its own tone a point may pick its palette "
-                                        "colour, as a share of the tones", 0.0, 1.0, 0.1),
+    Parameter("noise_spread", "Spread", "Noise by tone and hue: how far from its own colour a point may pick "
+                                        "its palette colour (0: the nearest; 1: any)", 0.0, 1.0, 0.1),
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution)", 0.0, 1.0, 1.0),
     Parameter("strokes", "Strokes", "Brush strokes at the texture's resolution, drawn along the result's flow in "
                                     "the palette's colours, this strong (0: none; needs a palette)", 0.0, 1.0, 0.0),
-    Parameter("stroke_length", "Stroke Length", "Length of the brush strokes (object normalised to a longest "
-                                                "side of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
-    Parameter("stroke_width", "Stroke Width", "Width of the brush strokes (object normalised to a longest side "
-                                              "of 2); finer than a texel they blur", 0.001, 0.1, 0.01, "length",
-              precision=4, step=0.1),
+    Parameter("stroke_length", "Stroke Length", "Length of the largest brush strokes (object normalised to a "
+                                                "longest side of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
+    Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a longest "
+                                              "side of 2); strokes narrower than three texels are not drawn",
+              0.003, 0.2, 0.03, "length", precision=4, step=0.1),
+    Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.8 times "
+                                         "narrower and go only where the picture has detail", 1, 4, 3, "count",
+              precision=0, step=100),
+    Parameter("stroke_jitter", "Jitter", "How far each stroke's colour moves towards a neighbouring palette colour "
+                                         "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3),
+    Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
+                                "(0: they follow the picture alone)", 0.0, 1.0, 0.0),
+    Parameter("fidelity", "Fidelity", "How much of the picture's own colours the palette keeps: 0 the palette "
+                                      "alone, 0.5 the picture's hues in the palette's tones, 1 the picture's colours",
+              0.0, 1.0, 0.0),
+    Parameter("contours", "Contours", "Dark lines along the picture's strong edges, drawn on the surface, this "
+                                      "strong (0: none)", 0.0, 1.0, 0.0),
+    Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
+                                  "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0),
 )}
 
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
@@ -148,8 +169,9 @@ DIRECTIONS = {
 NOISE_MAPPINGS = {
     "random": ("Random", "Any palette colour, by its weight, for the chosen share of points (the paper's "
                          "recipe, for surfaces painted in the palette's colours)"),
-    "tone": ("By Tone", "The picture's tones mapped onto the palette, darks to its darks and lights to its "
-                        "lights; the chosen share of points picks a colour near its own tone (keeps the picture)"),
+    "tone": ("By Tone and Hue", "The picture's colours mapped onto the palette by tone and hue (a grey sky to "
+                                "its blues, a yellow to its yellows; Fidelity keeps the picture's own); the chosen "
+                                "share of points picks a palette colour near its own (keeps the picture)"),
 }
 
 #: The modes whose strokes can follow a direction (:data:`DIRECTIONS`).

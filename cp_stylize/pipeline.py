@@ -7,12 +7,15 @@
 3. Build the closest point band around the mesh.
 4. Bake the surface colour into the band (textures through per-corner UVs,
    per-corner colours elsewhere).
-5. Optionally replace a fraction of the band points with palette colours.
+5. Optionally map the colours onto a palette (:mod:`cp_stylize.palette`)
+   and replace a fraction of the band points with palette colours.
 6. Diffuse on the surface.
 7. Bake the band's values into the atlas image, with the input's own detail
    finer than the band laid back where the filter left it
-   (:func:`cp_stylize.baking.lay_detail`), every colour kept within the hull
-   of the input's colours (:class:`cp_stylize.colours.ColourHull`).
+   (:func:`cp_stylize.baking.lay_detail`), brush strokes and contour lines
+   painted over it (:mod:`cp_stylize.painting`), every colour kept within the
+   hull of the input's colours (:class:`cp_stylize.colours.ColourHull`); the
+   strokes' heights make a second image, the relief.
 """
 
 from __future__ import annotations
@@ -30,9 +33,12 @@ from .colours import ColourHull
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
+from .parameters import DIRECTED_MODES
 from .mesh import TriangleMesh
-from .noise import LUMA, inject_noise, tone_noise
-from .strokes import Strokes, line_field, streak_steps
+from .noise import inject_noise
+from .painting import painting
+from .palette import map_to_palette, palette_noise
+from .strokes import Brush
 from .sampling import texture_at
 
 __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
@@ -45,9 +51,6 @@ NORMAL_LENGTH = 2.0
 #: Heat flow time, in h^2, that evens out the shape operator of a mesh before its principal
 #: directions are taken (the interpolated normals bend face by face).
 CURVATURE_SMOOTHING = 4.0
-#: The brush strokes follow the result's structure integrated over this time per squared stroke
-#: length (0.5: a deviation of one stroke length), so that they bend no tighter than they are long.
-STROKE_FIELD = 0.5
 #: A band kept for re-runs keeps its bake-out's interpolation for atlases of up to this many baked
 #: texels (a 1024 x 1024 atlas; 64 weights a texel, about 512 MiB), so a re-run bakes out in one product.
 KEEP_BAKE_TEXELS = 1 << 20
@@ -173,6 +176,7 @@ class StylizeResult:
     spacing: float           # grid spacing in the mesh's own units
     seconds: float
     timings: dict = dataclasses.field(default_factory=dict)  # seconds: atlas, band, bake_in, diffusion, bake_out
+    height: np.ndarray | None = None   # (size, size) the paint's height (settings.relief > 0), row 0 at the bottom
 
 
 def sample_colours(band, colours, channels=3):
@@ -312,17 +316,20 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     painted = (shape, settings.spacing, stencil, colour_digest(colours))
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
     values = sampled
+    weights = settings.palette_weights or None
     if settings.noise_mapping == "tone":
-        values = tone_noise(values, settings.noise_fraction, settings.palette,
-                            weights=settings.palette_weights or None, spread=settings.noise_spread, seed=settings.seed)
+        values = map_to_palette(values, settings.palette, weights, fidelity=settings.fidelity)
+        if settings.noise_fraction > 0:
+            values = palette_noise(values, settings.noise_fraction, settings.palette, weights,
+                                   spread=settings.noise_spread, seed=settings.seed)
     elif settings.noise_fraction > 0:
-        values = inject_noise(values, settings.noise_fraction, settings.palette,
-                              weights=settings.palette_weights or None, seed=settings.seed)
+        values = inject_noise(values, settings.noise_fraction, settings.palette, weights=weights, seed=settings.seed)
     lap("bake_in")
     report(0.15)
     field = stroke_field(band, settings, directions)
-    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme, field=field,
-                     progress=lambda f: report(0.15 + 0.8 * f))
+    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
+                     field=field if settings.mode in DIRECTED_MODES else None,
+                     progress=lambda f: report(0.15 + 0.7 * f))
     lap("diffusion")
     detail = None
     if settings.detail > 0:
@@ -331,25 +338,32 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                         lambda face, bary: cache.get("texel_colours", (painted, layout),
                                                      lambda: read_only(colours_at(face, bary, colours))),
                         settings.detail)
-    strokes = None
-    if settings.strokes > 0:
-        strokes = Strokes(band, line_field(band, result, STROKE_FIELD * settings.stroke_length**2),
-                          result[band.inner, :3].astype(np.float64) @ LUMA, settings.palette,
-                          settings.palette_weights or None, strength=settings.strokes, length=settings.stroke_length,
-                          width=settings.stroke_width, spread=settings.noise_spread, seed=settings.seed)
+    paint = None
+    if settings.strokes > 0 or settings.contours > 0:
+        brush = None
+        if settings.strokes > 0:
+            brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
+                          jitter=settings.stroke_jitter, swirl=settings.swirl, strength=settings.strokes,
+                          seed=settings.seed)
+        paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
+                         palette=settings.palette or None, weights=weights, field=field)
+        report(0.9)
+        lap("painting")
     texels = cache.get("texels", layout,
                        lambda: tuple(read_only(a) for a in atlas_points(mesh, atlas, settings.margin)))
     matrix = None
     if band.kept is not None and len(texels[0]) <= KEEP_BAKE_TEXELS:
         matrix = band.structure("bake_out", (layout, result.dtype.str),
                                 lambda: bake_matrix(band, texels, result.dtype, progress=lambda f: report(0.95)))
-    image = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, strokes=strokes,
-                          progress=lambda f: report(0.95 + 0.05 * f), texels=texels, matrix=matrix,
+    baked = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, paint=paint,
+                          progress=lambda f: report(0.9 + 0.1 * f), texels=texels, matrix=matrix,
                           limit=ColourHull(input_colours(colours, settings)).limit)
+    image, height = baked if paint is not None else (baked, None)
     lap("bake_out")
     report(1.0)
     return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
-                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings)
+                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings,
+                         height=height if settings.relief > 0 else None)
 
 
 #: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
@@ -370,9 +384,9 @@ SECONDS_PER_TEXEL = 8e-7
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
 SECONDS_PER_RUN = 0.9
 
-#: Brush strokes: seconds per texel and step of its streak, per band point for their line field,
-#: and the share of an atlas's texels that are baked (islands and margin).
-SECONDS_STROKE_STEP = 1.5e-7
+#: Brush strokes: seconds per baked texel and layer of strokes, per band point and layer for their
+#: stroke fields, and the share of an atlas's texels that are baked (islands and margin).
+SECONDS_STROKES_PER_TEXEL = 2.5e-6
 SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
 BAKED_SHARE = 0.6
 
@@ -406,8 +420,8 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     if unwrap:
         seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
     if settings.strokes > 0:
-        steps = 2 * streak_steps(settings.stroke_length, settings.stroke_width)
-        seconds += BAKED_SHARE * texels * steps * SECONDS_STROKE_STEP + n_points * SECONDS_STROKE_FIELD_PER_POINT
+        layers = settings.stroke_layers
+        seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
     nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL

@@ -96,7 +96,13 @@ class StylizeSettings:
     detail: float = 1.0             # the texture's own detail laid back (cp_stylize.baking.lay_detail)
     strokes: float = 0.0            # brush strokes over the result (cp_stylize.strokes)
     stroke_length: float = 0.1
-    stroke_width: float = 0.01
+    stroke_width: float = 0.03
+    stroke_layers: int = 3
+    stroke_jitter: float = 0.3
+    swirl: float = 0.0
+    fidelity: float = 0.0           # mapping "tone": how much of the picture's own colours (cp_stylize.palette)
+    contours: float = 0.0           # lines along the strong edges (cp_stylize.contours)
+    relief: float = 0.0             # the strokes' height, as a second image
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()
     seed: int = 0
@@ -113,7 +119,7 @@ class StylizeSettings:
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
         for parameter in RUN.values():
-            parameter.check(getattr(self, parameter.name))
+            object.__setattr__(self, parameter.name, parameter.check(getattr(self, parameter.name)))
         unknown = set(self.params) - set(FILTER_PARAMETERS)
         if unknown:
             raise ValueError(f"unknown filter parameter(s) {sorted(unknown)}; known: {list(FILTER_PARAMETERS)}")
@@ -124,8 +130,6 @@ class StylizeSettings:
             raise ValueError(f"noise mapping must be one of {list(NOISE_MAPPINGS)}, got {self.noise_mapping!r}")
         if (self.noise_fraction > 0 or self.noise_mapping == "tone") and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
-        if self.strokes > 0 and not self.palette:
-            raise ValueError("strokes are drawn in a palette's colours: they need a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
         check_value("image size", self.image_size, *IMAGE_SIZES)
@@ -134,9 +138,9 @@ class StylizeSettings:
     def _check_direction(self):
         if self.direction is not None and self.direction not in DIRECTIONS:
             raise ValueError(f"direction must be one of {list(DIRECTIONS)}, got {self.direction!r}")
-        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES:
-            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)}, "
-                             f"not {self.mode!r}")
+        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes:
+            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)} and for "
+                             f"brush strokes, not {self.mode!r} without strokes")
         if self.mode == "flow" and self.direction == "texture":
             raise ValueError("mode 'flow' draws along a direction field: direction must be one of "
                              f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")
@@ -207,10 +211,15 @@ def _hex(rgb):
     return "#" + "".join(f"{round(min(max(c, 0.0), 1.0) * 255):02x}" for c in rgb)
 
 
+#: The keys of a preset's [strokes] table, and the settings they set.
+_STROKE_KEYS = {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
+                "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"}
+
+
 def settings_from_dict(data, *, source="preset"):
     """:class:`StylizeSettings` from a parsed preset table."""
     known = {"name", "description", "mode", "T", "spacing", "detail", "direction", "axis", "attribute", "params", "noise",
-             "strokes", "output"}
+             "strokes", "output", "contours"}
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}")
@@ -226,14 +235,17 @@ def settings_from_dict(data, *, source="preset"):
         weights.append(float(weight))
     output = dict(data.get("output", {}))
     strokes = dict(data.get("strokes", {}))
-    unknown = set(strokes) - {"strength", "length", "width"}
+    unknown = set(strokes) - set(_STROKE_KEYS)
     if unknown:
-        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)} in [strokes]; known: strength, length, width")
+        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)} in [strokes]; known: {', '.join(_STROKE_KEYS)}")
     try:
         return StylizeSettings(
             mode=data.get("mode", "ced"), T=data.get("T", 1e-4), spacing=data.get("spacing", 0.01),
             detail=data.get("detail", 1.0), strokes=strokes.get("strength", 0.0),
-            stroke_length=strokes.get("length", 0.1), stroke_width=strokes.get("width", 0.01),
+            stroke_length=strokes.get("length", 0.1), stroke_width=strokes.get("width", 0.03),
+            stroke_layers=strokes.get("layers", 3), stroke_jitter=strokes.get("jitter", 0.3),
+            swirl=strokes.get("swirl", 0.0), relief=strokes.get("relief", 0.0),
+            fidelity=noise.get("fidelity", 0.0), contours=data.get("contours", 0.0),
             noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
             noise_mapping=noise.get("mapping", "random"), noise_spread=noise.get("spread", 0.1),
             palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
@@ -278,6 +290,8 @@ def save_preset(settings, path):
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
              f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
              f"spacing = {_toml_value(float(settings.spacing))}", f"detail = {_toml_value(float(settings.detail))}"]
+    if settings.contours > 0:
+        lines.append(f"contours = {_toml_value(float(settings.contours))}")
     if settings.direction is not None:
         lines.append(f"direction = {_toml_value(settings.direction)}")
     if settings.axis != (0.0, 0.0, 1.0):
@@ -290,14 +304,14 @@ def save_preset(settings, path):
         lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
                   f"mapping = {_toml_value(settings.noise_mapping)}",
                   f"spread = {_toml_value(float(settings.noise_spread))}",
+                  f"fidelity = {_toml_value(float(settings.fidelity))}",
                   f"seed = {int(settings.seed)}", "palette = ["]
         weights = settings.palette_weights or (1.0,) * len(settings.palette)
         lines += [f'  ["{_hex(c)}", {_toml_value(float(w))}],' for c, w in zip(settings.palette, weights)]
         lines += ["]"]
     if settings.strokes > 0:
-        lines += ["", "[strokes]", f"strength = {_toml_value(float(settings.strokes))}",
-                  f"length = {_toml_value(float(settings.stroke_length))}",
-                  f"width = {_toml_value(float(settings.stroke_width))}"]
+        lines += ["", "[strokes]"] + [f"{key} = {_toml_value(getattr(settings, name))}"
+                                      for key, name in _STROKE_KEYS.items()]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(lines))

@@ -32,6 +32,7 @@ with the first and the structure tensor (``rho``) with the second, instead of
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 
@@ -220,7 +221,20 @@ class GridGaussian:
         self.prolong = SplitMatrix(sp.csr_matrix(
             (vals.ravel(), cols.ravel(), np.arange(0, 8 * band.size + 1, 8, dtype=cols.dtype)),
             shape=(band.size, n_cells)))
+        self._band, self._h, self._weights = band, band.h, weights
         self.covered, self.scale = _normalisation(self._blur(np.ones((1, band.size), self.dtype))[0], self.dtype)
+
+    def at_time(self, t):
+        """The same smoothing to heat time ``t``: on this one's box grid where the Gaussian left
+        there stays wide enough (:data:`MIN_COARSE_STD`), so its grids are shared; else a new one."""
+        std = _coarse_std(math.sqrt(2.0 * float(t)) / self._h, self.factor)
+        if std < MIN_COARSE_STD and self.factor > 1:
+            return GridGaussian(self._band, t, weights=self._weights, dtype=self.dtype)
+        other = copy.copy(self)
+        other.std = std
+        other.covered, other.scale = _normalisation(other._blur(np.ones((1, self._band.size), self.dtype))[0],
+                                                    self.dtype)
+        return other
 
     def _blur(self, rows):
         out = np.empty((len(rows), self.prolong.shape[0]), dtype=self.dtype)

@@ -1,182 +1,587 @@
-"""Brush strokes at the texture's own resolution, drawn along a line field on the surface.
+"""Brush strokes: dabs of paint laid on the surface, coarse to fine, and the relief they leave.
 
-The band holds the filtered colours at the grid's resolution; painterly
-strokes want to be finer and longer than the diffusion alone draws them (its
-strokes are a few grid spacings wide, and bend with the structure they
-follow).  :class:`Strokes` lays strokes over the texels of the bake-out, seed
-004's flow texture done as a line integral convolution:
+A painter covers the canvas with large strokes first and puts small ones
+where the picture has detail (Hertzmann, "Painterly rendering with curved
+brush strokes of multiple sizes", SIGGRAPH 1998); strokes follow the forms
+and stop at the edges they would cross (Litwinowicz, "Processing images and
+video for an impressionist effect", SIGGRAPH 1997).  Here each stroke is one
+dab on the surface itself:
 
-- a solid value noise (:func:`solid_noise`), whose cells are the strokes'
-  width, is defined in 3-D around the surface, so it has no seams and does
-  not stretch;
-- each texel's surface point follows the band's line field (:func:`line_field`)
-  both ways for half the stroke length, step by step on the tangent plane of
-  the nearest band point's closest point, and averages the noise along the
-  way: long thin streaks along the field;
-- the streaks shift each texel's tone rank, and the shifted rank picks its
-  palette colour (as :func:`cp_stylize.noise.tone_noise` does for band
-  points): strokes of the palette's colours, in the picture's tones.
+- **placed by its 3-D position**: points drawn on the triangles by area,
+  thinned to at most one a cube of the layer's width (so they spread evenly),
+  so a dab crosses UV seams and islands unbroken;
+- **in layers**: the first covers the whole surface with dabs ``width`` wide;
+  each next layer's dabs are :data:`LAYER_RATIO` times narrower and go only
+  where the colours at their scale differ from the layer before (detail and
+  edges);
+- **oriented** along the stroke field of its layer (:class:`StrokeField`):
+  the picture's structure where it has some, else swirls or a given field;
+- **one flat colour**: the filtered colours at the dab's centre, blurred to
+  the layer's width, moved a little towards a neighbouring palette colour
+  (``jitter``);
+- **drawn at the texels** of the atlas (:func:`paint`): a tapered footprint
+  ``length`` long and ``width`` wide with anti-aliased edges, clipped where
+  the colours under it differ from its own, composited in order; each dab
+  also leaves a ridge profile with bristle grooves, and overlapping dabs
+  stack into a height map (impasto).
 
-Lengths are those of the object normalised to a longest side of 2, so the
+Lengths are those of the object normalised to a diameter of 2, so the
 strokes look the same on an object of any size.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
-from scipy import ndimage
+from scipy.spatial import cKDTree
 
-from .diffusion import GridSmoothing
-from .noise import LUMA, palette_by_tone
+from .oklab import from_oklab, to_oklab
+from .arrays import expand_runs
+from .palette import check_palette
+from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
-from .structure import eigen_2x2, reduce_to_tangent
-from .tangent import surface_normals, tangent_basis
 
-__all__ = ["Strokes", "line_field", "solid_noise", "streaks", "streak_steps"]
+__all__ = ["Brush", "Dabs", "Texels", "StrokeField", "Swirls", "place_dabs", "paint", "LAYER_RATIO"]
 
-#: Steps of a streak each way, per stroke length over width (at least 4, at most 32): a step of
-#: about a noise cell.
-_STEPS_PER_ASPECT = 0.5
-#: Band closest points (about) the streaks' mean and deviation are measured on.
-_SAMPLE = 1 << 14
-#: Texels a streak works on at once.
-_CHUNK = 1 << 16
-#: A streak stops where the surface it walks on turns by more than this (cosine of the angle
-#: between the normals of two steps), or onto another piece of the mesh: it has crossed to another
-#: sheet (an ear's other side, an eyeball in its socket).
-_SAME_SHEET = 0.5
+#: Each layer's dabs are this many times narrower than the layer's before.
+LAYER_RATIO = 1.8
+#: A layer whose dabs would be narrower than this many texels is left out (it could not be drawn).
+MIN_TEXELS = 3.0
+#: Dabs of the first layer cover each point of the surface about this many times.
+COVER = 2.0
+#: A finer layer's dab goes where its colour differs from the coarser layer's by more than this
+#: (OKLab distance; certainly at twice).
+DETAIL = 0.04
+#: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
+#: gone at twice.
+CLIP = 0.2
+#: Each dab's length varies by this share about the brush's.
+LENGTH_SPREAD = 0.15
+#: Swirls (:class:`Swirls`) are this many dab lengths across.
+SWIRL_SIZE = 4.0
+#: Of the height a later dab paints over, this share is scraped away.
+FLATTEN = 0.6
+#: Bristle grooves are at least this many texels apart.
+GROOVE_TEXELS = 3.0
+#: Dabs drawn at once (a block of pairs of texels and dabs).
+_CHUNK = 3000
 
 
-class Strokes:
-    """What :func:`cp_stylize.baking.bake_to_atlas` needs to paint strokes over its texels.
+@dataclasses.dataclass(frozen=True)
+class Brush:
+    """What the strokes look like (lengths of the object normalised to a diameter of 2).
 
-    ``field`` (N, 3) is a unit tangent line field at the band points (see
-    :func:`line_field`); ``tones`` the band's tones that ranks are counted
-    among; ``palette`` (K, 3) and ``weights`` (K,) the colours and the share
-    of the tones each takes; ``strength`` in [0, 1] blends the strokes over
-    the filtered colours; ``length`` and ``width`` are in the band's units;
-    ``spread`` is how far a streak moves a texel's tone rank (its standard
-    deviation, as a share of the tones).
+    ``width``, ``length``: the first layer's dabs; ``layers``: how many
+    layers, each :data:`LAYER_RATIO` times finer; ``jitter`` in [0, 1]: how
+    far a dab's colour moves towards a neighbouring palette colour;
+    ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
+    no structure; ``strength`` in [0, 1]: the dabs' opacity; ``seed``: the
+    same seed places the same dabs.
     """
 
-    def __init__(self, band, field, tones, palette, weights, *, strength, length, width, spread, seed=0):
-        self.band = band
-        self.tones = np.sort(np.asarray(tones, dtype=np.float64))
-        self.palette = np.asarray(palette, dtype=np.float64)
-        self.weights = None if weights is None else np.asarray(weights, dtype=np.float64)
-        self.strength, self.length, self.width = float(strength), float(length), float(width)
-        self.spread, self.seed = float(spread), int(seed)
-        # what a streak's step reads at its nearest band point, gathered at once: the field, the
-        # normal and the closest point (and, on a mesh, the connected piece, which a streak keeps to)
-        pieces = np.zeros(band.size) if band.pieces is None else band.pieces
-        self.frame = np.column_stack([field, surface_normals(band), band.cp, pieces]).astype(np.float64)
-        self.lattice = _lattice(self.seed)
-        self.scale = None           # the streaks' mean and deviation (streaks)
+    width: float
+    length: float
+    layers: int = 3
+    jitter: float = 0.3
+    swirl: float = 0.0
+    strength: float = 1.0
+    seed: int = 0
 
-    def __call__(self, points, colours, progress=None):
-        """The texels' colours (M, C) with the strokes laid over them, at their surface points (M, 3);
-        ``progress(fraction)`` as the streaks advance (an exception it raises stops them)."""
-        colours = np.asarray(colours)
-        s = streaks(self, points, progress)
-        tone = colours[:, :3].astype(np.float64) @ LUMA
-        rank = np.searchsorted(self.tones, tone) / max(len(self.tones), 1)
-        painted = palette_by_tone(rank + self.spread * s, self.palette, self.weights)
-        out = colours.astype(np.float64, copy=True)
-        out[:, :3] += self.strength * (painted - out[:, :3])
-        return out.astype(colours.dtype, copy=False)
+    def widths(self, texel):
+        """The dab widths of the layers that can be drawn with texels ``texel`` long."""
+        widths = [self.width / LAYER_RATIO**k for k in range(self.layers)]
+        drawn = [w for w in widths if w >= MIN_TEXELS * texel]
+        return drawn or widths[:1]
+
+    def lengths(self, texel):
+        """The dab lengths of the layers of :meth:`widths`."""
+        return [self.length * w / self.width for w in self.widths(texel)]
 
 
-def line_field(band, values, rho, dtype=np.float32):
-    """Unit stroke directions (N, 3) along the structure of band values (N, C): the smaller
-    eigenvector of their tangent structure tensor integrated over ``rho`` (a time; deviation
-    ``sqrt(2 rho)``), as a line field (its sign is arbitrary)."""
-    smoothing = GridSmoothing(band, dtype, {"sigma": 0.0, "rho": float(rho)})
-    for build in smoothing.builds():
-        build()
-    rows = np.ascontiguousarray(np.asarray(values, dtype=dtype).reshape(band.size, -1).T)
-    J = smoothing.tensor(rows)
-    q0, q1 = np.ascontiguousarray(tangent_basis(band).transpose(2, 1, 0), dtype=dtype)
-    _, _, c, s = eigen_2x2(*reduce_to_tangent(J, q0, q1))
-    # (c, s) is across the structure (the gradient's direction); the strokes run at right angles
-    return np.ascontiguousarray((q1 * c - q0 * s).T)
+@dataclasses.dataclass
+class Dabs:
+    """Dabs in painting order: centres, unit normals and directions (n, 3), lengths and widths (n,),
+    sRGB colours (n, 3), connected pieces of the mesh (n,), bristle phases (n,), layers (n,), and the
+    input face (n,) and barycentric coordinates (n, 3) of each centre."""
+
+    centre: np.ndarray
+    normal: np.ndarray
+    direction: np.ndarray
+    length: np.ndarray
+    width: np.ndarray
+    colour: np.ndarray
+    piece: np.ndarray
+    phase: np.ndarray
+    layer: np.ndarray
+    face: np.ndarray
+    bary: np.ndarray
+
+    def __len__(self):
+        return len(self.centre)
+
+    @classmethod
+    def concatenate(cls, parts):
+        return cls(*[np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(cls)])
+
+    @property
+    def aspect(self):
+        """Each dab's length over its width (n,)."""
+        return self.length / self.width
 
 
-#: Cells a side of the periodic lattice of the solid noise (its period, in cells).
-_PERIOD = 128
-#: The noise's lattice is turned against the object's axes, so that its period lines up with none.
-_TURN = np.linalg.qr(np.array([[2.0, 1.0, 0.3], [-0.7, 1.9, 0.8], [0.2, -1.1, 2.4]]))[0]
+class Swirls:
+    """Swirling directions on any surface: the rotated surface gradient ``n x grad phi`` of a smooth
+    random function ``phi`` of space (a sum of plane waves of about one ``wavelength``), which runs
+    along the level lines of ``phi`` and so circles its maxima and minima."""
+
+    WAVES = 24
+
+    def __init__(self, wavelength, seed=0):
+        rng = np.random.default_rng([int(seed), 5])
+        direction = rng.standard_normal((self.WAVES, 3))
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+        k = 2 * np.pi / wavelength * (0.7 + 0.6 * rng.random(self.WAVES))
+        self.omega = direction * k[:, None]
+        self.phase = 2 * np.pi * rng.random(self.WAVES)
+        self.amplitude = 1.0 / (np.sqrt(self.WAVES) * k)
+
+    def __call__(self, points, normals):
+        """Unit tangent directions (M, 3) at surface points (M, 3) with unit normals (M, 3)."""
+        gradient = (np.cos(points @ self.omega.T + self.phase) * self.amplitude) @ self.omega
+        gradient -= np.einsum("ij,ij->i", gradient, normals)[:, None] * normals
+        return _unit(np.cross(normals, gradient))
 
 
-def _lattice(seed):
-    return np.random.default_rng([int(seed), 4]).random((_PERIOD,) * 3, dtype=np.float32)
+class StrokeField:
+    """Where strokes run at one scale: along the structure of band values (the smaller eigenvector of
+    their tangent structure tensor, integrated over a deviation of half a dab length), with a
+    confidence in it, so that :meth:`at` can blend in swirls or a given field where the picture has
+    little structure.  Made by :meth:`layers` for all the scales of a brush at once."""
+
+    def __init__(self, band, direction, confidence, strength):
+        self.band, self.direction, self.confidence, self.strength = band, direction, confidence, strength
+
+    def _nearest(self, points):
+        return np.maximum(self.band.lookup(np.rint(points / self.band.h).astype(np.int64)), 0)
+
+    def strength_at(self, points):
+        """The structure's strength (M,) at surface points (M, 3): the root of the tensor's larger
+        eigenvalue, a colour change per unit length."""
+        return self.strength[self._nearest(points)]
+
+    @classmethod
+    def layers(cls, band, values, lengths):
+        """A field for each dab length of ``lengths``, of the structure of band ``values`` (N, C)."""
+        from .diffusion import GridSmoothing
+        from .structure import eigen_2x2, products, reduce_to_tangent
+        from .tangent import tangent_basis
+
+        gradients = GridSmoothing(band, np.float32, {"sigma": 0.0})
+        gradients._build_gradients()
+        rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
+        J = products(rows, gradients.gradients)
+        q0, q1 = np.ascontiguousarray(tangent_basis(band).transpose(2, 1, 0), dtype=np.float32)
+        fields, smoothing = [], None
+        for length in lengths:
+            rho = 0.5 * (0.5 * length) ** 2
+            smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
+                         else smoothing.at_time(rho))
+            mu1, mu2, c, s = eigen_2x2(*reduce_to_tangent(smoothing(J), q0, q1))
+            strength = np.sqrt(np.maximum(mu1, 0.0))
+            coherence = (mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)
+            # a structure counts where it is coherent and among the stronger of the surface's
+            confidence = (np.clip(coherence / 0.5, 0.0, 1.0)
+                          * np.clip(strength / max(float(np.quantile(strength, 0.6)), 1e-12), 0.0, 1.0))
+            fields.append(cls(band, np.ascontiguousarray((q1 * c - q0 * s).T), confidence, strength))
+        return fields
+
+    def at(self, points, normals, swirl=0.0, swirls=None, field=None):
+        """Unit directions (M, 3) at surface points (M, 3) with normals (M, 3): the structure's, blended
+        by doubled angles with ``swirls`` (by ``swirl`` where the structure is weak) or with a given
+        ``field`` (N, 3) of the band, whose length is the confidence in it."""
+        nearest = self._nearest(points)
+        direction = _tangent(self.direction[nearest].astype(np.float64), normals)
+        confidence = self.confidence[nearest].astype(np.float64)
+        if field is not None:
+            given = np.asarray(field[nearest], dtype=np.float64)
+            trust = np.clip(np.linalg.norm(given, axis=1), 0.0, 1.0)
+            direction = _blend(_tangent(given, normals), direction, trust, normals)
+        if swirls is not None and swirl > 0:
+            direction = _blend(direction, swirls(points, normals), 1.0 - swirl * (1.0 - confidence), normals)
+        return direction
 
 
-def solid_noise(points, cell, seed=0, lattice=None):
-    """Value noise in [0, 1] at 3-D points (M, 3): random values on a lattice of spacing ``cell``
-    (periodic every :data:`_PERIOD` cells, turned against the axes), interpolated trilinearly.
-    Defined in space, so any surface reads it without seams; deterministic for a seed."""
-    lattice = _lattice(seed) if lattice is None else lattice
-    x = (_TURN.T * (1.0 / cell)) @ np.asarray(points, dtype=np.float64).T          # (3, M), contiguous
-    return ndimage.map_coordinates(lattice, x, order=1, mode="grid-wrap", prefilter=False)
+def _unit(v):
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-12)
 
 
-def streaks(strokes, points, progress=None):
-    """Line integral convolution of :func:`solid_noise` along the strokes' field, at surface points
-    (M, 3), about ``length`` long and ``width`` wide, scaled to mean 0 and standard deviation 1
-    over the band's closest points (so a point's value depends on that point alone, and texels on
-    either side of a seam read the same).
+def _tangent(v, normals):
+    return _unit(v - np.einsum("ij,ij->i", v, normals)[:, None] * normals)
 
-    From each point a streak walks ``n`` steps each way: the step goes along the field at the
-    nearest band point (its sign kept from the step before), is laid onto the tangent plane of that
-    point's closest point, and the noise is read where it lands.  A walk that leaves the band or
-    turns onto another sheet stops; the point averages what it read.
+
+def _blend(first, second, weight, normals):
+    """Line fields (M, 3) blended by doubled angles in each tangent plane: ``weight`` of ``first``."""
+    side = np.cross(normals, first)
+    angle = np.arctan2(np.einsum("ij,ij->i", second, side), np.einsum("ij,ij->i", second, first))
+    doubled = (1.0 - weight) * np.exp(2j * angle) + weight        # first at angle 0
+    half = 0.5 * np.angle(doubled)
+    return _unit(np.cos(half)[:, None] * first + np.sin(half)[:, None] * side)
+
+
+def _surface_samples(mesh, n, rng):
+    """``n`` random points on the mesh, by area: points (n, 3), input faces (n,), barycentrics (n, 3)."""
+    corners = mesh.vertices[mesh.faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    kept = rng.choice(len(corners), size=n, p=area / area.sum())
+    r = np.sqrt(rng.random(n))
+    t = rng.random(n)
+    bary = np.column_stack([1.0 - r, r * (1.0 - t), r * t])
+    return np.einsum("nk,nkj->nj", bary, corners[kept]), mesh.face_index[kept], bary
+
+
+def _spread(points, cell, rng):
+    """Indices of ``points`` with at most one in each cube of side ``cell``, chosen at random."""
+    order = rng.permutation(len(points))
+    key = np.floor(points[order] / cell).astype(np.int64)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return np.sort(order[first])
+
+
+def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None, weights=None, field=None,
+               fields=None):
+    """The dabs of a brush on a mesh, in painting order (a :class:`Dabs`).
+
+    Parameters
+    ----------
+    mesh : TriangleMesh
+        The surface, as the band was built on it.
+    band : Band
+    values : ndarray, shape (N, 3)
+        The band's sRGB colours the dabs take theirs from (the filtered result).
+    brush : Brush
+    structure : ndarray, shape (N, C), optional
+        Band values whose structure the dabs follow (default ``values``).
+    texel : float
+        The atlas's texel length on the surface (layers too fine for it are left out).
+    palette, weights : optional
+        Colours a dab's colour is jittered towards (see :class:`Brush`).
+    field : ndarray, shape (N, 3), optional
+        A direction field the dabs follow where its length (the confidence in it) is 1.
+    fields : list of StrokeField, optional
+        The layers' fields, made before (:meth:`StrokeField.layers` of ``structure`` and the layers'
+        dab lengths, :meth:`Brush.lengths`).
     """
-    if strokes.scale is None:
-        sample = strokes.band.cp[:: max(1, strokes.band.size // _SAMPLE)]
-        raw = _convolve(strokes, sample)
-        strokes.scale = (float(raw.mean()), max(float(raw.std()), 1e-12))
-    mean, std = strokes.scale
-    return (_convolve(strokes, points, progress) - mean) / std
+    rng = np.random.default_rng([int(brush.seed), 6])
+    values = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1)[:, :3])
+    structure = to_oklab(values) if structure is None else structure
+    lab_palette = None if palette is None else to_oklab(check_palette(palette, weights)[0])
+    swirls = Swirls(SWIRL_SIZE * brush.length, brush.seed) if brush.swirl > 0 else None
+    widths, lengths = brush.widths(texel), brush.lengths(texel)
+    fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
+    parts = []
+    for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
+        n = int(4 * COVER * mesh.area / (_AREA * length * width))
+        points, faces, bary = _surface_samples(mesh, n, rng)
+        keep = _spread(points, width * np.sqrt(2.5 / COVER), rng)
+        points, faces, bary = points[keep], faces[keep], bary[keep]
+        if layer > 0:
+            # finer dabs where the colours change by more than DETAIL across a dab's width
+            change = lines.strength_at(points) * width
+            chosen = rng.random(len(points)) < np.clip(change / DETAIL - 1.0, 0.0, 1.0)
+            points, faces, bary = points[chosen], faces[chosen], bary[chosen]
+        normals = mesh.normal(points, faces, bary)
+        pieces = mesh.piece[faces]
+        direction = lines.at(points, normals, brush.swirl, swirls, field)
+        count = len(points)
+        length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(count) - 1.0))
+        colour = _picked_up(band, values, points, normals, pieces, direction, length)
+        parts.append(Dabs(points, normals, direction, length, np.full(count, width),
+                          _jittered(colour, brush.jitter, lab_palette, rng), pieces.astype(np.int64),
+                          2 * np.pi * rng.random(count), np.full(count, layer), faces, bary))
+    return Dabs.concatenate(parts)
 
 
-def streak_steps(length, width):
-    """Steps a streak takes each way for strokes ``length`` long and ``width`` wide."""
-    return int(np.clip(round(_STEPS_PER_ASPECT * length / width), 4, 32))
+#: Where along its length (a share of half the length) a dab reads the colours it takes the mean of.
+PICKUP = np.linspace(-0.7, 0.7, 5)
 
 
-def _convolve(strokes, points, progress=None):
-    band = strokes.band
-    points = np.asarray(points, dtype=np.float64)
-    n = streak_steps(strokes.length, strokes.width)
-    step = 0.5 * strokes.length / n
-    lattice = strokes.lattice
-    frame = strokes.frame
+def _picked_up(band, values, points, normals, pieces, direction, length):
+    """The colour a dab takes (n, 3): the mean of the band's colours at :data:`PICKUP` points along it,
+    each moved onto the surface (the closest point of its nearest band point; the centre where it
+    has left the band)."""
+    k = len(PICKUP)
+    along = points[:, None, :] + (PICKUP[None, :, None] * 0.5 * length[:, None, None]) * direction[:, None, :]
+    along = along.reshape(-1, 3)
+    nearest = band.lookup(np.rint(along / band.h).astype(np.int64))
+    centre = np.repeat(points, k, axis=0)
+    onto = np.where((nearest >= 0)[:, None], band.cp[np.maximum(nearest, 0)], centre)
+    read = band.interpolate(values, onto, np.repeat(normals, k, axis=0), np.repeat(pieces, k))
+    return read.reshape(len(points), k, -1).mean(axis=1)
 
-    def walk(s):
-        x0 = points[s:s + _CHUNK]
-        total = solid_noise(x0, strokes.width, lattice=lattice)
-        count = np.ones(len(x0))
-        for sign in (1.0, -1.0):
-            x = x0.copy()
-            live = np.ones(len(x0), dtype=bool)
-            heading = normal = None
-            for _ in range(n):
-                g = band.lookup(np.rint(x * (1.0 / band.h)).astype(np.int64))
-                live &= g >= 0
-                f = np.take(frame, np.where(live, g, 0), axis=0)
-                e, nrm, cp = f[:, 0:3], f[:, 3:6], f[:, 6:9]
-                if normal is not None:
-                    live &= (np.abs(np.einsum("ij,ij->i", nrm, normal)) >= _SAME_SHEET) & (f[:, 9] == piece)
-                    e *= np.where(np.einsum("ij,ij->i", e, heading) < 0, -1.0, 1.0)[:, None]
-                else:
-                    piece = f[:, 9]
-                    e *= sign
-                heading, normal = e, nrm
-                x += (step * live)[:, None] * e
-                # back onto the tangent plane of the nearest band point's closest point
-                x -= (np.einsum("ij,ij->i", x - cp, nrm) * live)[:, None] * nrm
-                total += live * solid_noise(x, strokes.width, lattice=lattice)
-                count += live
-        return total / count
 
-    return np.concatenate([np.empty(0)] + map_parallel(walk, range(0, len(points), _CHUNK), progress))
+def _jittered(colours, jitter, lab_palette, rng):
+    """sRGB colours (n, 3), each moved by up to ``jitter`` towards one of the three palette colours
+    nearest to it, and its lightness by a little noise."""
+    lab = to_oklab(colours)
+    if jitter > 0 and lab_palette is not None:
+        near = np.argsort(np.linalg.norm(lab[:, None, :] - lab_palette[None], axis=2), axis=1)[:, :3]
+        pick = near[np.arange(len(lab)), rng.integers(0, near.shape[1], len(lab))]
+        lab += (jitter * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
+    lab[:, 0] += 0.06 * jitter * rng.standard_normal(len(lab))
+    return from_oklab(lab)
+
+
+@dataclasses.dataclass
+class Texels:
+    """The atlas texels strokes are painted at.
+
+    ``points`` and ``normals`` (M, 3): their surface points and unit normals;
+    ``pieces`` (M,): the connected piece of the mesh each lies on; ``lengths``
+    (M,): each texel's length on the surface; ``flat`` (M,): their flat
+    indices in the atlas (``row * size + col``), the first ``covered`` inside
+    UV triangles and the rest the margin; ``uvs`` (F, 3, 2) and ``corners``
+    (F, 3, 3): the UV and 3-D corners of the mesh's input faces.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    pieces: np.ndarray
+    lengths: np.ndarray
+    flat: np.ndarray
+    covered: int
+    size: int
+    uvs: np.ndarray
+    corners: np.ndarray
+
+    def __post_init__(self):
+        self.points = np.asarray(self.points, dtype=np.float32)
+        self.normals = np.asarray(self.normals, dtype=np.float32)
+        self.lengths = np.asarray(self.lengths, dtype=np.float32)
+        self.position = np.full(self.size * self.size, -1, dtype=np.int64)   # atlas texel -> index, or -1
+        self.position[self.flat[:self.covered]] = np.arange(self.covered)
+        self._tree = None
+
+    @property
+    def tree(self):
+        """A k-d tree of the points (made on first use)."""
+        if self._tree is None:
+            self._tree = cKDTree(self.points)
+        return self._tree
+
+
+#: Share of a dab's area its own UV raster must find (inside UV triangles) before it is taken as
+#: whole; a dab that crosses a seam, or a UV map that stretches under it, is drawn from a search in
+#: space instead.
+WHOLE = 0.92
+#: The UV raster of a dab is this much larger than its footprint at its centre (the UV map's stretch
+#: may change under it), and two texels more.
+RASTER_SLACK = 1.1
+
+
+def paint(dabs, texels, base, reference=None, *, strength=1.0, progress=None):
+    """The texels' colours with the dabs painted over them, and the height the paint leaves.
+
+    Parameters
+    ----------
+    dabs : Dabs
+    texels : Texels
+    base : ndarray, shape (M, 3)
+        The colours under the paint.
+    reference : ndarray, shape (M, 3), optional
+        The colours a dab is clipped against (:data:`CLIP`); default ``base``.
+    strength : float
+        The dabs' opacity.
+    progress : callable, optional
+        ``progress(fraction)``; an exception it raises stops the painting.
+
+    Returns
+    -------
+    colours : ndarray (M, 3), float32
+    height : ndarray (M,), float32
+        The paint's height in units of a dab's full thickness (0 where none lies).
+
+    Notes
+    -----
+    A dab's texels are found in the atlas itself: its footprint at its
+    centre, mapped into UV by its face's map, is rasterised row by row.
+    Where that finds less than :data:`WHOLE` of the dab's area inside UV
+    triangles (the dab crosses a seam or leaves its island), the dab is drawn
+    from all texels within its reach in space (a k-d tree), which finds it on
+    every island it covers.
+    """
+    reference = base if reference is None else reference
+    lab_reference = to_oklab(reference).astype(np.float32)
+    lab_dabs = to_oklab(dabs.colour).astype(np.float32)
+    sides = np.cross(dabs.normal, dabs.direction)
+    uv_axes = _uv_axes(dabs, texels)
+
+    def block(s):
+        i, j, alpha, along, across = _covering(dabs, sides, uv_axes, texels, np.arange(s, min(s + _CHUNK, len(dabs))))
+        difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=1)
+        alpha *= strength * np.clip(2.0 - difference / CLIP, 0.0, 1.0)
+        drawn = alpha > 1e-3
+        return _composite(dabs, texels, *(x[drawn] for x in (i, j, alpha, along, across)))
+
+    colours = np.array(base, dtype=np.float64)
+    height = np.zeros(len(texels.points))
+    for found in map_parallel(block, range(0, len(dabs), _CHUNK), progress):
+        if found is not None:
+            touched, through, added, height_through, height_added = found
+            colours[touched] = colours[touched] * through[:, None] + added
+            height[touched] = height[touched] * height_through + height_added
+    return colours.astype(np.float32), height.astype(np.float32)
+
+
+def _uv_axes(dabs, texels):
+    """The dabs' half length and half width vectors (n, 2, 2) in texel units of the atlas, by the map
+    of each centre's face, and their centres (n, 2) with texel centres at integers."""
+    uv = texels.uvs[dabs.face] * texels.size - 0.5                   # (n, 3, 2)
+    corners = texels.corners[dabs.face]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    g11, g12, g22 = (np.einsum("ij,ij->i", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    det = g11 * g22 - g12 * g12
+    det = np.where(np.abs(det) > 1e-30, det, np.inf)
+    sides = np.cross(dabs.normal, dabs.direction)
+    axes = []
+    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width)[:, None]):
+        r1, r2 = np.einsum("ij,ij->i", w, e1), np.einsum("ij,ij->i", w, e2)
+        x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
+        axes.append(x[:, None] * d1 + y[:, None] * d2)
+    centre = np.einsum("nk,nkj->nj", dabs.bary, uv)
+    return np.stack(axes, axis=1), centre
+
+
+def _covering(dabs, sides, uv_axes, texels, which):
+    """The texels each dab of ``which`` covers: pairs of dabs ``i`` and texels ``j`` with the coverage
+    ``alpha`` (anti-aliased over a texel) and the texel's place in the dab (``along`` its length and
+    ``across`` its width, each in [-1, 1])."""
+    i, j = _raster_pairs(uv_axes, texels, which)
+    found = _geometry(dabs, sides, texels, i, j)
+    area = np.bincount(found[0] - which[0], weights=found[2] * texels.lengths[found[1]] ** 2 * (found[1] < texels.covered),
+                       minlength=len(which))
+    whole = area >= WHOLE * _AREA * dabs.length[which] * dabs.width[which]
+    if whole.all():
+        return found
+    keep = whole[found[0] - which[0]]
+    searched = _geometry(dabs, sides, texels, *_ball_pairs(dabs, texels, which[~whole]))
+    return tuple(np.concatenate([a[keep], b]) for a, b in zip(found, searched))
+
+
+def _raster_pairs(uv_axes, texels, which):
+    """Pairs (dab, texel index) of the texels inside each dab's UV parallelogram (with slack)."""
+    axes, centre = uv_axes[0][which], uv_axes[1][which]
+    size = texels.size
+    grow = RASTER_SLACK + 1.5 / np.maximum(np.linalg.norm(axes, axis=2), 1e-9)     # (n, 2)
+    axes = axes * grow[:, :, None]
+    corners = centre[:, None, :] + np.stack([axes[:, 0] + axes[:, 1], axes[:, 0] - axes[:, 1],
+                                             -axes[:, 0] - axes[:, 1], -axes[:, 0] + axes[:, 1]], axis=1)
+    finite = np.all(np.isfinite(corners.reshape(len(which), -1)), axis=1)
+    low = np.clip(np.ceil(np.where(finite, corners[:, :, 1].min(axis=1), 0)), 0, size).astype(np.int64)
+    high = np.clip(np.floor(np.where(finite, corners[:, :, 1].max(axis=1), -1)), -1, size - 1).astype(np.int64)
+    rows = np.maximum(high - low + 1, 0) * finite
+    unit, offset = expand_runs(rows)
+    y = (low[unit] + offset).astype(np.float64)
+    # the row's span: |alpha| <= 1 and |beta| <= 1 for (alpha, beta) = A^-1 (q - centre)
+    a, b = axes[unit, 0], axes[unit, 1]
+    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+    dy = y - centre[unit, 1]
+    lo, hi = np.full(len(unit), -np.inf), np.full(len(unit), np.inf)
+    for px, py in ((b[:, 1] / det, -b[:, 0] / det), (-a[:, 1] / det, a[:, 0] / det)):   # rows of A^-1
+        # px (x - cx) + py dy in [-1, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x1, x2 = (-1.0 - py * dy) / px, (1.0 - py * dy) / px
+        flat = np.abs(px) < 1e-12
+        inside = np.abs(py * dy) <= 1.0
+        lo = np.maximum(lo, np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(x1, x2)))
+        hi = np.minimum(hi, np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(x1, x2)))
+    lo = np.clip(np.ceil(lo + centre[unit, 0]), 0, size).astype(np.int64)
+    hi = np.clip(np.floor(hi + centre[unit, 0]), -1, size - 1).astype(np.int64)
+    span = np.maximum(hi - lo + 1, 0)
+    run, col = expand_runs(span)
+    position = texels.position[y[run].astype(np.int64) * size + lo[run] + col]
+    found = position >= 0
+    return which[unit[run[found]]], position[found]
+
+
+def _ball_pairs(dabs, texels, which):
+    """Pairs (dab, texel index) of all texels within each dab's reach in space."""
+    if not len(which):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    margin = 2.0 * float(np.median(texels.lengths))
+    found = texels.tree.query_ball_point(dabs.centre[which], np.maximum(0.5 * dabs.length[which], dabs.width[which])
+                                         + margin, return_sorted=False)
+    counts = np.fromiter((len(f) for f in found), np.int64, len(found))
+    if not counts.sum():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.repeat(which, counts), np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
+
+
+def _half_width(along):
+    """A dab's half width at ``along`` in [-1, 1], as a share of half its width: a flat body with a
+    rounded head (-1) and a tail that tapers (+1)."""
+    return (1.0 - np.abs(along) ** 3) ** (1 / 3) * (1.0 - 0.45 * np.maximum(along, 0.0) ** 3)
+
+
+#: A dab's area over its length times its width.
+_AREA = float(np.mean(_half_width(np.linspace(-1, 1, 20001))))
+
+
+def _geometry(dabs, sides, texels, i, j):
+    """Of pairs of dabs ``i`` and texels ``j``: those the dab covers, with the coverage and the
+    texel's place in the dab (see :func:`_covering`)."""
+    half_length = (0.5 * dabs.length[i]).astype(np.float32)
+    delta = texels.points[j] - dabs.centre[i].astype(np.float32)
+    a = np.einsum("ij,ij->i", delta, dabs.direction[i].astype(np.float32)) / half_length
+    lengths = texels.lengths[j]
+    near = np.abs(a) <= 1.0 + 2.0 * lengths / half_length
+    i, j, delta, a, half_length, lengths = i[near], j[near], delta[near], a[near], half_length[near], lengths[near]
+    v = np.einsum("ij,ij->i", delta, sides[i].astype(np.float32))
+    width = dabs.width[i].astype(np.float32)
+    near = np.abs(v) <= 0.5 * width + lengths
+    i, j, delta, a, v, half_length, width, lengths = (x[near] for x in (i, j, delta, a, v, half_length, width, lengths))
+    normal = dabs.normal[i].astype(np.float32)
+    own = ((np.einsum("ij,ij->i", texels.normals[j], normal) > 0.3) & (texels.pieces[j] == dabs.piece[i])
+           & (np.abs(np.einsum("ij,ij->i", delta, normal)) < half_length))
+    i, j, a, v, half_length, width, lengths = (x[own] for x in (i, j, a, v, half_length, width, lengths))
+    along = np.clip(a, -1.0, 1.0)
+    half_width = 0.5 * width * _half_width(along)
+    outside = np.maximum(np.abs(v) - half_width, (np.abs(a) - 1.0) * half_length)
+    alpha = np.clip(0.5 - outside / lengths, 0.0, 1.0)
+    covered = alpha > 0
+    across = np.clip(v / np.maximum(half_width, 1e-9), -1.0, 1.0)
+    return i[covered], j[covered], alpha[covered], along[covered], across[covered]
+
+
+def _composite(dabs, texels, i, j, alpha, along, across):
+    """Pairs of dabs ``i`` and texels ``j`` composited in order: per texel touched, how much of what
+    lies under the block shows through, and what the block adds (colour and height)."""
+    if not len(i):
+        return None
+    width = dabs.width[i]
+    grooves = np.maximum(2.0, np.round(width / (GROOVE_TEXELS * texels.lengths[j])))
+    groove = np.sin(0.5 * np.pi * grooves * (across + 1.0) + dabs.phase[i])
+    # thicker at the edges (paint pushed aside) and where the brush set down, grooved by bristles
+    profile = (0.55 + 0.45 * across**4) * (1.0 + 0.3 * groove) * (1.0 - 0.175 * (along + 1.0))
+    shade = 1.0 + 0.07 * groove
+    order = np.lexsort((-i, j))                # per texel, the last dab painted first
+    i, j, alpha, profile, shade = i[order], j[order], alpha[order], profile[order], shade[order]
+    heads = np.flatnonzero(np.r_[True, j[1:] != j[:-1]])
+    through, shown = _over(alpha, heads)
+    weight = alpha * shown * shade
+    colour = dabs.colour[i]
+    added = np.column_stack([np.add.reduceat(weight * colour[:, c], heads) for c in range(3)])
+    height_through, height_shown = _over(FLATTEN * alpha, heads)
+    height_added = np.add.reduceat(alpha * height_shown * profile, heads)
+    return j[heads], through, added, height_through, height_added
+
+
+def _over(alpha, heads):
+    """Front-to-back compositing of runs (from ``heads``) of opacities: the share of what lies under a
+    run that shows through it (per run), and the share of each item that shows (per item)."""
+    log = np.log(np.maximum(1.0 - alpha, 1e-7)).astype(np.float64)
+    total = np.cumsum(log)
+    before = np.repeat(total[heads] - log[heads], np.diff(np.r_[heads, len(alpha)]))
+    return np.exp(np.add.reduceat(log, heads)), np.exp(total - log - before)

@@ -9,11 +9,12 @@ from cp_stylize import Torus
 from cp_stylize.baking import lay_detail
 from cp_stylize.colours import TOLERANCE
 from cp_stylize.mesh import parametric_mesh
-from cp_stylize.noise import LUMA, tone_noise
 from cp_stylize.pipeline import ColourInput, Texture, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
 
 SIZE = 128
+#: Rec. 709 weights of a colour's tone.
+LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 @pytest.fixture(scope="module")
@@ -89,25 +90,6 @@ def test_lay_detail_keeps_the_original_where_nothing_changed_and_drops_noise_whe
     # small detail (the noise) is shrunk towards the changed result
     assert np.mean(np.abs(out - changed)) < 0.5 * np.mean(np.abs(original - sampled))
     np.testing.assert_array_equal(lay_detail(changed, sampled, original, 0.0), changed)
-
-
-def test_tone_noise_maps_the_tones_onto_the_palette_in_order():
-    palette = np.array([[0.9, 0.8, 0.3], [0.05, 0.1, 0.25], [0.2, 0.35, 0.7]])   # light, dark, mid
-    weights = [1, 2, 1]
-    grey = np.linspace(0, 1, 4000)[:, None].repeat(3, axis=1)
-    out = tone_noise(grey, 0.0, palette, weights=weights)
-    tone = out @ LUMA
-    assert np.all(np.diff(tone) >= 0)                              # darker input, darker colour
-    share = [np.mean(np.all(out == c, axis=1)) for c in palette]
-    np.testing.assert_allclose(share, [0.25, 0.5, 0.25], atol=0.01)  # each colour its weight of the tones
-    # a flat input takes one colour, not the whole palette
-    flat = tone_noise(np.full((100, 3), 0.4), 0.0, palette, weights=weights)
-    assert len(np.unique(flat, axis=0)) == 1
-    # the jitter picks neighbours of the own tone only
-    jittered = tone_noise(grey, 1.0, palette, weights=weights, spread=0.05, seed=1)
-    assert 0.05 < np.mean(np.any(jittered != out, axis=1)) < 0.3
-    with pytest.raises(ValueError, match="spread must lie in"):
-        tone_noise(grey, 0.5, palette, spread=2.0)
 
 
 def test_starry_night_keeps_the_picture_in_the_palette(torus):

@@ -1,97 +1,138 @@
-"""Brush strokes at the texture's resolution: solid noise, streaks along a line field, and their colours."""
+"""Brush strokes: dabs placed on the surface by their 3-D position, in layers, drawn at the texels."""
 
 import numpy as np
 import pytest
 
-from cp_stylize import Sphere
-from cp_stylize.band import Band
-from cp_stylize.noise import LUMA
-from cp_stylize.strokes import Strokes, line_field, solid_noise, streaks
+from cp_stylize import Band, Sphere
+from cp_stylize.atlas import uv_atlas
+from cp_stylize.baking import atlas_points, texel_lengths
+from cp_stylize.mesh import TriangleMesh, parametric_mesh
+from cp_stylize.strokes import Brush, Dabs, StrokeField, Swirls, Texels, paint, place_dabs
 
 
 @pytest.fixture(scope="module")
-def sphere_band():
-    return Band.build(Sphere(1.0), 0.04, stencil="anisotropic")
+def sphere():
+    """A UV sphere (seam at u = 0), its band, its own atlas and the atlas's texels."""
+    vertices, faces, uvs = parametric_mesh(Sphere().point, 96, 48, periodic_u=True)
+    mesh = TriangleMesh(vertices, faces)
+    band = Band.build(mesh, 0.04)
+    atlas = uv_atlas(mesh, 256, uvs)
+    flat, points, face, bary = atlas_points(mesh, atlas, 4)
+    texels = Texels(points, mesh.normal(points, face, bary), mesh.piece[face], texel_lengths(mesh, atlas, face), flat,
+                    len(atlas.texels), atlas.size, atlas.uvs, mesh.vertices[mesh.input_faces])
+    return mesh, band, atlas, texels
 
 
-def _meridians(band):
-    """The line field along the meridians of the unit sphere (the z axis laid onto it)."""
-    n = band.cp / np.linalg.norm(band.cp, axis=1)[:, None]
-    e = np.array([0.0, 0.0, 1.0]) - n[:, 2:3] * n
-    return e / np.maximum(np.linalg.norm(e, axis=1), 1e-12)[:, None]
+def _stripes(band, along):
+    """Band colours striped across ``along`` (unit 3-vector): stripes run at right angles to it."""
+    t = np.sin(40 * band.cp @ np.asarray(along, float))
+    return np.column_stack([0.5 + 0.4 * t, 0.5 - 0.4 * t, 0.5 + 0 * t]).astype(np.float32)
 
 
-def _on_sphere(theta, phi):
-    return np.column_stack([np.cos(theta) * np.cos(phi), np.cos(theta) * np.sin(phi), np.sin(theta)])
+def _one_dab(mesh, centre, direction, length=0.3, width=0.08, colour=(1.0, 0.0, 0.0)):
+    from cp_stylize.mesh import TriangleMesh  # noqa: F401  (the mesh gives the face and barycentrics)
+
+    cp, _, face, bary = mesh.closest_point_on_faces(np.atleast_2d(centre))
+    n = mesh.normal(cp, face, bary)
+    d = np.asarray(direction, float) - (np.asarray(direction, float) @ n[0]) * n[0]
+    d /= np.linalg.norm(d)
+    return Dabs(cp, n, d[None], np.array([length]), np.array([width]), np.array([colour]),
+                mesh.piece[face].astype(np.int64), np.zeros(1), np.zeros(1, int), face, bary)
 
 
-def test_solid_noise_is_a_smooth_function_of_the_point_and_its_seed():
+def test_the_stroke_field_runs_along_stripes(sphere):
+    mesh, band, _, _ = sphere
+    (field,) = StrokeField.layers(band, _stripes(band, [0, 0, 1]), [0.2])
+    # stripes across z: strokes along the parallels, at right angles to z, where the stripes are
+    equator = np.abs(band.cp[:, 2]) < 0.5
+    assert np.median(np.abs(field.direction[equator, 2])) < 0.1
+    assert np.median(field.confidence[equator]) > 0.5
+
+
+def test_swirls_are_unit_tangents_that_turn():
+    swirls = Swirls(0.5, seed=1)
     rng = np.random.default_rng(0)
-    x = rng.uniform(-1, 1, (20000, 3))
-    a = solid_noise(x, 0.01, seed=3)
-    assert a.min() >= 0 and a.max() <= 1 and abs(a.mean() - 0.5) < 0.01
-    np.testing.assert_array_equal(a[::-1], solid_noise(x[::-1], 0.01, seed=3))    # the point's own value
-    assert np.corrcoef(a, solid_noise(x, 0.01, seed=4))[0, 1] < 0.05             # another seed, other noise
-    near = solid_noise(x + 1e-4, 0.01, seed=3)                                   # continuous across cells
-    assert np.max(np.abs(near - a)) < 0.05
+    n = rng.standard_normal((2000, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    e = swirls(n, n)
+    np.testing.assert_allclose(np.linalg.norm(e, axis=1), 1.0, atol=1e-9)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", e, n), 0.0, atol=1e-9)
+    # nearby points circle together; far ones do not share a direction
+    near = swirls(n + 0.01 * np.cross(n, e), n)
+    assert np.median(np.abs(np.einsum("ij,ij->i", e, near))) > 0.95
 
 
-def test_streaks_run_along_the_field_and_not_across(sphere_band):
-    strokes = Strokes(sphere_band, _meridians(sphere_band), [0.0, 1.0], [(0, 0, 0), (1, 1, 1)], None,
-                      strength=1.0, length=0.2, width=0.01, spread=0.2)
-    rng = np.random.default_rng(1)
-    theta, phi = rng.uniform(-0.6, 0.6, 4000), rng.uniform(0, 2 * np.pi, 4000)
-    s = streaks(strokes, _on_sphere(theta, phi))
-    assert abs(s.mean()) < 0.1 and 0.8 < s.std() < 1.2                     # scaled on the band's points
-    along = streaks(strokes, _on_sphere(theta + 0.03, phi))                 # 0.03 along the meridian
-    across = streaks(strokes, _on_sphere(theta, phi + 0.03 / np.cos(theta)))  # 0.03 across it
-    c_along, c_across = np.corrcoef(s, along)[0, 1], np.corrcoef(s, across)[0, 1]
-    print(f"\ncorrelation 0.03 along the strokes {c_along:.2f}, across {c_across:.2f}")
-    assert c_along > 0.8 and c_across < 0.2
-    # a point's streak is its own, whichever points are asked with it (seams read the same)
-    np.testing.assert_allclose(streaks(strokes, _on_sphere(theta[:7], phi[:7])), s[:7], rtol=0, atol=1e-12)
+def test_dabs_are_three_to_five_times_longer_than_wide_and_finer_layers_go_to_detail(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = _stripes(band, [0, 0, 1])
+    colours[band.cp[:, 0] < 0] = 0.5               # the half x < 0 is flat grey: no detail there
+    brush = Brush(width=0.12, length=0.48, layers=2, seed=3)
+    dabs = place_dabs(mesh, band, colours, brush, texel=float(np.median(texels.lengths)))
+    assert np.all((dabs.aspect >= 3) & (dabs.aspect <= 5))
+    first, fine = dabs.layer == 0, dabs.layer == 1
+    assert np.mean(dabs.centre[first, 0] < 0) == pytest.approx(0.5, abs=0.1)       # the first layer everywhere
+    assert np.mean(dabs.centre[fine, 0] > 0) > 0.8                                   # finer dabs at the detail
+    np.testing.assert_allclose(np.linalg.norm(dabs.centre, axis=1), 1.0, atol=2e-3)  # on the surface
+    np.testing.assert_array_equal(place_dabs(mesh, band, colours, brush, texel=0.01).centre[:50],
+                                  place_dabs(mesh, band, colours, brush, texel=0.01).centre[:50])   # seeded
 
 
-def test_the_line_field_follows_the_structure(sphere_band):
-    # values that change with the longitude only: their structure runs along the meridians
-    phi = np.arctan2(sphere_band.cp[:, 1], sphere_band.cp[:, 0])
-    values = np.repeat(np.sin(4 * phi)[:, None], 3, axis=1)
-    e = line_field(sphere_band, values, 2e-4)
-    near = np.abs(sphere_band.cp[:, 2]) < 0.7
-    assert np.median(np.abs(np.sum(e * _meridians(sphere_band), axis=1))[near]) > 0.99
+def test_a_dab_across_the_seam_is_drawn_whole_on_both_islands(sphere):
+    mesh, band, atlas, texels = sphere
+    # the UV sphere's seam (u = 0) is the meridian through (-1, 0, 0): a dab across it
+    dab = _one_dab(mesh, [-1.0, 0.0, 0.2], [0, 1, 0])
+    base = np.full((len(texels.points), 3), 0.5)
+    out, height = paint(dab, texels, base, np.tile(dab.colour, (len(base), 1)))
+    coverage = np.linalg.norm(out - base, axis=1) / np.linalg.norm(dab.colour[0] - base[0])
+    painted = coverage > 0.5
+    covered = painted[:texels.covered]
+    u = (texels.flat[:texels.covered][covered] % atlas.size + 0.5) / atlas.size
+    assert (u < 0.1).any() and (u > 0.9).any()                       # on both sides of the seam
+    area = np.sum(coverage[:texels.covered] * texels.lengths[:texels.covered] ** 2)
+    assert area == pytest.approx(0.3 * 0.08 * 0.79, rel=0.1)         # and whole, not cut at the seam
+    assert np.all(height[~painted] < 0.5) and np.all(height[painted & (np.arange(len(out)) < texels.covered)] > 0)
 
 
-def test_strokes_paint_the_palette_in_the_tones_order(sphere_band):
-    palette = [(0.05, 0.1, 0.3), (0.2, 0.35, 0.7), (0.95, 0.85, 0.3)]
-    rng = np.random.default_rng(2)
-    theta, phi = rng.uniform(-1, 1, 5000), rng.uniform(0, 2 * np.pi, 5000)
-    colours = np.where((phi < np.pi)[:, None], 0.2, 0.8) * np.ones((1, 3))   # a dark half, a light half
-    tones = np.where(np.arange(1000) < 500, 0.2, 0.8)
-    strokes = Strokes(sphere_band, _meridians(sphere_band), tones, palette, [1, 1, 1],
-                      strength=1.0, length=0.2, width=0.01, spread=0.2)
-    out = strokes(_on_sphere(theta, phi), colours)
-    nearest = np.min(np.linalg.norm(out[:, None] - np.array(palette)[None], axis=2), axis=1)
-    assert np.max(nearest) < 1e-6                                 # strength 1: only the palette's colours
-    tone = out @ LUMA
-    assert tone[phi < np.pi].mean() < tone[phi >= np.pi].mean() - 0.2   # the dark half stays darker
-    assert len(np.unique(out[phi < np.pi], axis=0)) >= 2          # and carries strokes of more than one colour
-    half = Strokes(sphere_band, _meridians(sphere_band), tones, palette, None, strength=0.5,
-                   length=0.2, width=0.01, spread=0.2)(_on_sphere(theta, phi), colours)
-    np.testing.assert_allclose(half, 0.5 * (colours + out), atol=1e-12)
+def test_dab_edges_are_anti_aliased_and_overlaps_stack(sphere):
+    mesh, band, atlas, texels = sphere
+    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.6, width=0.2, colour=(0.9, 0.1, 0.1))
+    base = np.zeros((len(texels.points), 3))
+    reference = np.tile(one.colour, (len(base), 1))                  # the dab's own colour: nothing clips it
+    out, height = paint(one, texels, base, reference)
+    red = out[:, 0]
+    partial = (red > 0.05) & (red < 0.6)
+    assert partial.sum() > 10                                        # a rim of partly covered texels
+    assert partial.sum() < (red >= 0.75).sum()                       # and a body
+    two = Dabs.concatenate([one, _one_dab(mesh, [0.0, -1.0, 0.1], [0, 0, 1], length=0.6, width=0.2,
+                                          colour=(0.9, 0.1, 0.5))])
+    _, stacked = paint(two, texels, base, reference + [[0.0, 0.0, 0.4]])
+    both = (height > 0) & (stacked > 0)
+    assert stacked.max() > height.max()                              # paint piles up where dabs overlap
+    assert np.all(stacked[both] > 0)
 
 
-def test_the_streaks_report_their_progress_in_order_and_stop_when_told(sphere_band):
-    strokes = Strokes(sphere_band, _meridians(sphere_band), [0.0, 1.0], [(0, 0, 0), (1, 1, 1)], None,
-                      strength=1.0, length=0.05, width=0.01, spread=0.2)
-    rng = np.random.default_rng(3)
-    points = _on_sphere(rng.uniform(-1, 1, 140_000), rng.uniform(0, 2 * np.pi, 140_000))
-    colours = np.full((len(points), 3), 0.5)
+def test_a_dab_stops_at_an_edge_of_other_colours(sphere):
+    mesh, band, atlas, texels = sphere
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], colour=(0.9, 0.9, 0.1))
+    base = np.full((len(texels.points), 3), 0.9)
+    base[:, 2] = 0.1
+    reference = base.copy()
+    reference[texels.points[:, 2] > 0.03] = (0.05, 0.05, 0.4)         # dark blue above z = 0.03
+    out, _ = paint(dab, texels, base, reference)
+    changed = np.linalg.norm(out - base, axis=1) > 0.05
+    assert not np.any(changed & (texels.points[:, 2] > 0.06))         # the yellow dab keeps off the blue
+
+
+def test_painting_reports_progress_and_stops_when_told(sphere):
+    mesh, band, atlas, texels = sphere
+    brush = Brush(width=0.06, length=0.24, layers=1, seed=1)
+    dabs = place_dabs(mesh, band, np.full((band.size, 3), 0.5, np.float32), brush, texel=0.01)
     seen = []
-    strokes(points, colours, progress=seen.append)
-    assert len(seen) == 3 and seen == sorted(seen) and seen[-1] == 1.0          # three chunks of texels
+    paint(dabs, texels, np.zeros((len(texels.points), 3)), progress=seen.append)
+    assert seen == sorted(seen) and seen[-1] == 1.0
 
     def stop(fraction):
-        raise KeyboardInterrupt("stop")
+        raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        strokes(points, colours, progress=stop)
+        paint(dabs, texels, np.zeros((len(texels.points), 3)), progress=stop)

@@ -1,0 +1,97 @@
+"""The paint a run lays over its atlas: brush strokes, contour lines and the relief they leave.
+
+:func:`painting` makes a :class:`Painting` from the run's filtered colours on
+the band; :func:`cp_stylize.baking.bake_to_atlas` calls it on the atlas's
+texels, after it has interpolated the filtered colours there.  At the texels
+the strokes (:mod:`cp_stylize.strokes`) are painted over the filtered
+colours, the contour lines (:mod:`cp_stylize.contours`) are inked over the
+strokes, and the strokes' heights come back as a height map.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .baking import texel_lengths
+from .contours import contour_field, ink_colour, line_strength, line_width
+from .oklab import to_oklab
+from .strokes import Brush, StrokeField, Texels, paint, place_dabs
+
+__all__ = ["Painting", "painting"]
+
+
+class Painting:
+    """Strokes and lines for :func:`cp_stylize.baking.bake_to_atlas` to lay over its texels.
+
+    ``dabs``: the :class:`~cp_stylize.strokes.Dabs` (or None), drawn with
+    opacity ``strength``; ``lines`` (N,): the band's contour field (or None),
+    inked ``contours`` strong in ``ink`` (sRGB; None darkens the colour under
+    the line instead).
+    """
+
+    def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None):
+        self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
+        self.contours = float(contours)
+        self.ink = None if ink is None else np.asarray(ink, dtype=np.float64)
+        self.columns = None if lines is None or self.contours <= 0 else np.asarray(lines, dtype=np.float32)
+
+    def __call__(self, texels, colours, columns, progress=None):
+        """The texels' colours (M, C) painted, and the height (M,) the strokes leave (None without strokes)."""
+        flat, points, faces, barys = texels
+        colours = np.asarray(colours)
+        out = colours[:, :3].astype(np.float64)
+        height = None
+        if self.dabs is not None and len(self.dabs):
+            mesh = self.mesh
+            where = Texels(points, mesh.normal(points, faces, barys), mesh.piece[faces],
+                           texel_lengths(mesh, self.atlas, faces), flat, len(self.atlas.texels), self.atlas.size,
+                           self.atlas.uvs, mesh.vertices[mesh.input_faces])
+            out, height = paint(self.dabs, where, out, strength=self.strength, progress=progress)
+        if self.columns is not None:
+            ink = self.contours * line_strength(columns[:, 0])[:, None]
+            target = 0.25 * out if self.ink is None else self.ink
+            out = out + ink * (target - out)
+        painted = colours.copy()
+        painted[:, :3] = out
+        return painted, height
+
+
+def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
+             weights=None, field=None):
+    """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
+
+    Parameters
+    ----------
+    mesh : TriangleMesh
+    band : Band
+    values : ndarray, shape (N, 3)
+        The filtered colours (sRGB) the strokes take theirs from.
+    atlas : Atlas
+    brush : Brush, optional
+        The strokes (none without).
+    contours : float
+        How strongly lines are inked along the strong edges of ``structure`` (0: none).
+    structure : ndarray, shape (N, 3), optional
+        The colours whose structure strokes follow and lines outline (default ``values``).
+    palette, weights : optional
+        The palette: strokes are jittered towards its colours, lines drawn in its darkest.
+    field : ndarray, shape (N, 3), optional
+        A direction field the strokes follow where its length is 1 (see
+        :func:`cp_stylize.pipeline.stroke_field`).
+    """
+    values = np.asarray(values).reshape(band.size, -1)[:, :3]
+    structure = values if structure is None else np.asarray(structure).reshape(band.size, -1)[:, :3]
+    lab = to_oklab(structure).astype(np.float32)
+    texel = float(np.median(texel_lengths(mesh, atlas, atlas.face))) if len(atlas.face) else band.h
+    lengths = brush.lengths(texel) if brush is not None else [16 * texel]
+    fields = StrokeField.layers(band, lab, lengths) if brush is not None or contours > 0 else None
+    dabs = None
+    if brush is not None and brush.strength > 0:
+        dabs = place_dabs(mesh, band, values, brush, structure=lab, texel=texel, palette=palette,
+                          weights=weights, field=field, fields=fields)
+    lines = None
+    if contours > 0:
+        finest = brush.widths(texel)[-1] if brush is not None else 4 * texel
+        lines = contour_field(band, structure, line_width(finest, band.h), fields[-1].direction)
+    return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
+                    contours=contours, ink=ink_colour(palette))

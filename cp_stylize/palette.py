@@ -1,0 +1,168 @@
+"""A picture's colours mapped onto a painting's palette, by tone and by hue.
+
+A painterly look paints the picture in a painting's colours.  Mapping by
+tone alone (darks to the palette's darks, lights to its lights) loses what
+the hues say: a grey sky and a yellow road marking of the same tone would
+take the same colour.  :func:`map_to_palette` works in OKLab
+(:mod:`cp_stylize.oklab`) and weighs both:
+
+- **tone**: each colour's lightness rank among all the colours, so that the
+  picture's tones spread over the palette's whatever its exposure; each
+  palette colour takes the share of the ranks its weight asks for, and the
+  lightness follows the palette's own at that rank;
+- **hue**: where a colour and a palette colour both have a hue (a chroma
+  above :data:`GREY`), their hue difference counts too, so a yellow keeps to
+  the palette's yellows and ochres, a red door to its warmest colour, while
+  a grey takes whichever colour the palette gives its tone (a grey sky the
+  painting's blues).
+
+The palette colours are blended by how well they fit (a soft choice: no hard
+splits where a tone crosses from one colour to the next).  ``fidelity``
+then leads back to the picture's own colours: at 0 the palette alone, at 0.5
+the picture's hues in the palette's tones, at 1 the picture's colours.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import rankdata
+
+from .oklab import from_oklab, to_oklab
+from .sparse import map_parallel
+
+__all__ = ["map_to_palette", "palette_noise", "check_palette", "GREY"]
+
+#: Chroma (OKLab) below which a colour's hue is not trusted: a grey's hue is noise.
+GREY = 0.04
+#: How far in tone ranks a colour may lie beyond a palette colour's share and still take it (a
+#: Gaussian's deviation, as a share of the ranks).
+TONE_REACH = 0.12
+#: How far in hue a colour may lie from a palette colour and still take it (distance of unit hue
+#: vectors: 0.6 is about 35 degrees).
+HUE_REACH = 0.6
+#: The hue of a strongly coloured picture colour (chroma of HUE_WEIGHT * GREY or more) counts this many
+#: times as much as one just past GREY.
+HUE_WEIGHT = 3.0
+#: The lightness of the result: this share from the palette's lightness at the colour's tone rank
+#: (a smooth ramp that keeps the picture's tonal detail), the rest from the chosen colours.
+TONE_KEEP = 0.6
+#: Colours mapped at once.
+_CHUNK = 1 << 16
+
+
+def check_palette(palette, weights=None):
+    """``(palette (K, 3) float64, weights (K,) summing to 1)``, or ValueError naming what is wrong."""
+    palette = np.asarray(palette, dtype=np.float64)
+    if palette.ndim != 2 or palette.shape[1] < 3 or len(palette) == 0:
+        raise ValueError(f"palette must have shape (K, 3) with K >= 1, got {palette.shape}")
+    if weights is None or len(weights) == 0:
+        weights = np.ones(len(palette))
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.shape != (len(palette),) or not np.all(np.isfinite(weights)) or np.any(weights < 0) \
+            or weights.sum() <= 0:
+        raise ValueError(f"palette weights must be {len(palette)} non-negative numbers, not all zero")
+    return palette[:, :3], weights / weights.sum()
+
+
+def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
+    """The colours (M, 3) mapped onto a palette by tone and hue (see the module's notes).
+
+    Parameters
+    ----------
+    colours : ndarray, shape (M, C), C >= 3
+        sRGB-encoded colours in [0, 1] (channels past the third are kept as they are).
+    palette : sequence of colours, shape (K, 3)
+        The painting's colours, sRGB-encoded.
+    weights : sequence of K floats, optional
+        The share of the picture's tones each palette colour takes (equal by default).
+    fidelity : float in [0, 1]
+        0: the palette's colours; 0.5: the picture's hues in the palette's
+        tones; 1: the picture's own colours.
+
+    Returns
+    -------
+    ndarray, shape (M, C), float32
+    """
+    colours = np.asarray(colours)
+    if colours.ndim != 2 or colours.shape[1] < 3:
+        raise ValueError(f"colours must have shape (M, 3) or more channels, got {colours.shape}")
+    if not 0.0 <= fidelity <= 1.0:
+        raise ValueError(f"fidelity must lie in [0, 1], got {fidelity!r}")
+    palette, weights = check_palette(palette, weights)
+    lab_palette = to_oklab(palette)
+    order = np.argsort(lab_palette[:, 0], kind="stable")          # darkest first
+    lab_palette, weights = lab_palette[order], weights[order]
+    centres = np.cumsum(weights) - weights / 2                    # each colour's share of the ranks
+    lab = to_oklab(colours[:, :3])
+    ranks = (rankdata(lab[:, 0]) - 0.5) / max(len(lab), 1)
+    out = np.empty((len(colours), 3))
+
+    def chunk(s):
+        part = slice(s, s + _CHUNK)
+        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity)
+
+    map_parallel(chunk, range(0, len(colours), _CHUNK))
+    result = colours.astype(np.float32, copy=True)
+    result[:, :3] = from_oklab(out)
+    return result
+
+
+def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
+    """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
+    chroma = np.hypot(lab[:, 1], lab[:, 2])
+    palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
+    # how much a hue counts: from 0 for greys up to HUE_WEIGHT times for strong colours (a saturated red
+    # must not turn blue however its tone ranks), and whether a palette colour has a hue at all
+    hued = np.clip(chroma / GREY, 0.0, HUE_WEIGHT)
+    palette_hued = np.clip(palette_chroma / GREY, 0.0, 1.0)
+    # distance in tone: how far the rank lies outside each colour's share
+    tone = np.maximum(np.abs(ranks[:, None] - centres[None, :]) - weights[None, :] / 2, 0.0) / TONE_REACH
+    # distance in hue: of the unit hue vectors, where both have a hue
+    cos = (lab[:, 1:] @ lab_palette[:, 1:].T) / np.maximum(chroma[:, None] * palette_chroma[None, :], 1e-12)
+    d2 = tone**2 + hued[:, None] * palette_hued[None, :] * (2.0 - 2.0 * cos) / HUE_REACH**2
+    fit = np.exp(-4.0 * (d2 - d2.min(axis=1, keepdims=True))) * weights[None, :]
+    fit /= fit.sum(axis=1, keepdims=True)
+    mix = fit @ lab_palette
+    ramp = np.interp(ranks, centres, lab_palette[:, 0])          # the palette's lightness at the rank
+    lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp
+    # fidelity: the picture's hue first (full at 0.5), then its lightness and chroma
+    turn = (min(1.0, 2.0 * fidelity) * np.minimum(hued, 1.0))[:, None]
+    mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
+    own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
+    ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
+    return np.column_stack([(1.0 - fidelity) * lightness + fidelity * lab[:, 0],
+                            (1.0 - fidelity) * ab + fidelity * lab[:, 1:]])
+
+
+def palette_noise(colours, fraction, palette, weights=None, *, spread=0.1, seed=0):
+    """A random ``fraction`` of the colours (M, 3) replaced by a palette colour near their own.
+
+    Each chosen colour takes one of the palette colours nearest to it in
+    OKLab, at random among the nearest ``1 + round(spread * (K - 1))`` of the
+    palette's K (``spread`` 0: always the nearest; 1: any).  The noise keeps
+    the picture's tones and hues; the filter then draws it out into strokes.
+    """
+    colours = np.asarray(colours)
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"fraction must lie in [0, 1], got {fraction!r}")
+    if not 0.0 <= spread <= 1.0:
+        raise ValueError(f"spread must lie in [0, 1], got {spread!r}")
+    palette, _ = check_palette(palette, weights)
+    out = colours.astype(np.float32, copy=True)
+    rng = np.random.default_rng(seed)
+    chosen = np.flatnonzero(rng.random(len(colours)) < fraction)
+    if not len(chosen):
+        return out
+    k = 1 + int(round(spread * (len(palette) - 1)))
+    lab_palette = to_oklab(palette)
+    nearest = np.empty((len(chosen), k), dtype=np.int64)
+
+    def chunk(s):
+        part = slice(s, s + _CHUNK)
+        distance = np.linalg.norm(to_oklab(colours[chosen[part], :3])[:, None, :] - lab_palette[None], axis=2)
+        nearest[part] = np.argsort(distance, axis=1, kind="stable")[:, :k]
+
+    map_parallel(chunk, range(0, len(chosen), _CHUNK))
+    pick = nearest[np.arange(len(chosen)), rng.integers(0, k, len(chosen))]
+    out[chosen, :3] = palette[pick]
+    return out

@@ -1,0 +1,43 @@
+"""Contour lines along the picture's strong edges, on the surface."""
+
+import numpy as np
+import pytest
+
+from cp_stylize import Band, Sphere
+from cp_stylize.contours import contour_field, ink_colour, line_strength, line_width
+
+
+@pytest.fixture(scope="module")
+def band():
+    return Band.build(Sphere(1.0), 0.03)
+
+
+def test_lines_lie_on_the_dark_side_of_edges_and_nowhere_on_flat_colour(band):
+    z = band.cp[:, 2]
+    colours = np.where((z > 0.3)[:, None], [0.9, 0.85, 0.7], [0.15, 0.2, 0.35]).astype(np.float32)  # a light cap
+    lines = line_strength(contour_field(band, colours, line_width(0.04, band.h)))
+    dark_side = (z > 0.25) & (z < 0.29)
+    light_side = (z > 0.31) & (z < 0.4)
+    flat = np.abs(z) < 0.2
+    assert np.median(lines[dark_side]) > 0.5
+    assert np.median(lines[light_side]) < 0.1
+    assert lines[flat].max() == 0
+    assert ((lines > 0.05) & (lines < 0.95)).any()                  # ink ramps in: lines are anti-aliased
+
+
+def test_lines_follow_the_edges_direction_and_a_faint_picture_draws_none(band):
+    z = band.cp[:, 2]
+    colours = np.where((z > 0.3)[:, None], 0.9, 0.15).astype(np.float32) * np.ones((1, 3), np.float32)
+    along = np.cross(band.cp, [0.0, 0.0, 1.0])                       # the parallels: along the edge
+    along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-12)
+    smooth = line_strength(contour_field(band, colours, line_width(0.04, band.h), along))
+    assert np.median(smooth[(z > 0.25) & (z < 0.29)]) > 0.5           # the line stays where it was
+    faint = 0.5 + 0.002 * (colours - 0.5)                            # an edge far below the floor
+    assert line_strength(contour_field(band, faint, line_width(0.04, band.h))).max() == 0
+
+
+def test_lines_are_as_wide_as_the_band_can_hold_and_drawn_in_the_palettes_darkest():
+    assert line_width(0.04, 0.008) == pytest.approx(0.01)
+    assert line_width(0.004, 0.008) == pytest.approx(0.006)         # no finer than 0.75 spacings
+    np.testing.assert_allclose(ink_colour([[0.9, 0.9, 0.2], [0.05, 0.1, 0.3], [0.5, 0.5, 0.5]]), [0.05, 0.1, 0.3])
+    assert ink_colour([]) is None

@@ -1,0 +1,78 @@
+"""A picture's colours mapped onto a painting's palette by tone and hue, and palette noise."""
+
+import numpy as np
+import pytest
+
+from cp_stylize.oklab import hue_difference, to_oklab
+from cp_stylize.palette import map_to_palette, palette_noise
+
+NIGHT = ["#0b1a3a", "#1d3b72", "#3c5fc0", "#6d8fd0", "#e6b12f", "#a9c3dd", "#f3d54e"]
+
+
+def _rgb(colours):
+    return np.array([[int(c[i:i + 2], 16) / 255 for i in (1, 3, 5)] for c in colours])
+
+
+def _hsv(rgb):
+    high, low = rgb.max(axis=1), rgb.min(axis=1)
+    saturation = np.where(high > 0, (high - low) / np.maximum(high, 1e-12), 0.0)
+    return saturation, high
+
+
+def test_greys_take_the_palette_by_tone_darkest_to_darkest():
+    palette = _rgb(NIGHT)
+    greys = np.repeat(np.linspace(0, 1, 200)[:, None], 3, axis=1)
+    out = map_to_palette(greys, palette)
+    lightness = to_oklab(out)[:, 0]
+    assert np.all(np.diff(lightness) >= -1e-6)                          # tones keep their order
+    assert lightness[0] < to_oklab(palette)[:, 0].min() + 0.05          # black to the palette's darkest
+    assert np.all(lightness <= to_oklab(palette)[:, 0].max() + 1e-6)
+
+
+def test_hues_keep_to_the_palette_colours_of_their_hue():
+    palette = _rgb(NIGHT)
+    # a picture of mid greys and a yellow of the same lightness: the grey is blue, the yellow yellow
+    grey, yellow = np.array([0.55, 0.55, 0.55]), np.array([0.65, 0.55, 0.1])
+    picture = np.vstack([np.tile(grey, (500, 1)), np.tile(yellow, (500, 1)), np.linspace(0, 1, 1000)[:, None] * [1, 1, 1]])
+    out = map_to_palette(picture, palette)
+    lab_blue, lab_yellow = to_oklab(palette[2]), to_oklab(palette[6])
+    assert hue_difference(to_oklab(out[0]), lab_blue) < 30
+    assert hue_difference(to_oklab(out[500]), lab_yellow) < 30
+    # a red takes the palette's warmest colour, not a blue
+    red = map_to_palette(np.vstack([[[0.8, 0.15, 0.1]], picture]), palette)[0]
+    assert hue_difference(to_oklab(red), lab_yellow) < 45
+
+
+def test_fidelity_leads_back_to_the_picture():
+    rng = np.random.default_rng(1)
+    picture = rng.random((5000, 3))
+    palette = _rgb(NIGHT)
+    np.testing.assert_allclose(map_to_palette(picture, palette, fidelity=1.0), picture, atol=1e-5)
+    saturation, value = _hsv(picture)
+    saturated = (saturation > 0.3) & (value > 0.15)
+    half = map_to_palette(picture, palette, fidelity=0.5)
+    difference = hue_difference(to_oklab(half[saturated]), to_oklab(picture[saturated]))
+    print(f"\nfidelity 0.5: median hue difference {np.median(difference):.1f} degrees")
+    assert np.median(difference) <= 25
+    none = map_to_palette(picture, palette, fidelity=0.0)
+    assert np.median(hue_difference(to_oklab(none[saturated]), to_oklab(picture[saturated]))) > 40
+
+
+def test_a_palette_needs_colours_and_weights_not_all_zero():
+    with pytest.raises(ValueError, match=r"palette weights must be 2 non-negative numbers, not all zero"):
+        map_to_palette(np.zeros((3, 3)), [[0, 0, 0], [1, 1, 1]], [0, 0])
+    with pytest.raises(ValueError, match=r"fidelity must lie in \[0, 1\], got 2"):
+        map_to_palette(np.zeros((3, 3)), [[0, 0, 0]], fidelity=2)
+
+
+def test_palette_noise_replaces_the_share_asked_by_colours_near_their_own():
+    rng = np.random.default_rng(2)
+    picture = rng.random((20000, 3)).astype(np.float32)
+    palette = _rgb(NIGHT)
+    out = palette_noise(picture, 0.4, palette, spread=0.0, seed=3)
+    changed = np.any(out != picture, axis=1)
+    assert abs(changed.mean() - 0.4) < 0.02
+    # spread 0: the nearest palette colour (OKLab) of each changed colour
+    distance = np.linalg.norm(to_oklab(picture[changed])[:, None] - to_oklab(palette)[None], axis=2)
+    np.testing.assert_allclose(out[changed], palette[np.argmin(distance, axis=1)], atol=1e-6)
+    np.testing.assert_array_equal(out, palette_noise(picture, 0.4, palette, spread=0.0, seed=3))   # seeded
