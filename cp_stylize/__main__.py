@@ -60,7 +60,7 @@ def main(argv=None):
     p.add_argument("--cases", nargs="+", metavar="CASE",
                    help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs (default: all)")
     p.set_defaults(func=_bench)
-    p = sub.add_parser("looks", help="measure the presets' looks on the forest-photo sphere (minutes)")
+    p = sub.add_parser("looks", help="measure the presets' looks on the photo sphere, Suzanne and a city photograph (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")
     p.set_defaults(func=_looks)
     p = sub.add_parser("docs", help="write the README's parameter tables from cp_stylize/parameters.py")

@@ -43,6 +43,9 @@ HUE_REACH = 0.6
 #: The hue of a strongly coloured picture colour (chroma of HUE_WEIGHT * GREY or more) counts this many
 #: times as much as one just past GREY.
 HUE_WEIGHT = 3.0
+#: Fidelity turns a colour's hue back to the picture's where its chroma is above this share of GREY:
+#: the dark, dull colours of a photograph have hues that read, although too weak to choose by.
+TURN_GREY = 0.25
 #: The lightness of the result: this share from the palette's lightness at the colour's tone rank
 #: (a smooth ramp that keeps the picture's tonal detail), the rest from the chosen colours.
 TONE_KEEP = 0.6
@@ -126,7 +129,7 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     ramp = np.interp(ranks, centres, lab_palette[:, 0])          # the palette's lightness at the rank
     lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp
     # fidelity: the picture's hue first (full at 0.5), then its lightness and chroma
-    turn = (min(1.0, 2.0 * fidelity) * np.minimum(hued, 1.0))[:, None]
+    turn = (min(1.0, 2.0 * fidelity) * np.clip(chroma / (TURN_GREY * GREY), 0.0, 1.0))[:, None]
     mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
     own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma

@@ -344,7 +344,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         if settings.strokes > 0:
             brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
                           jitter=settings.stroke_jitter, swirl=settings.swirl, strength=settings.strokes,
-                          seed=settings.seed)
+                          seed=settings.seed, fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
         paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                          palette=settings.palette or None, weights=weights, field=field)
         report(0.9)

@@ -77,7 +77,9 @@ class Brush:
     far a dab's colour moves towards a neighbouring palette colour;
     ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
     no structure; ``strength`` in [0, 1]: the dabs' opacity; ``seed``: the
-    same seed places the same dabs.
+    same seed places the same dabs; ``fidelity`` in [0, 1]: how much of the
+    picture's own colours the run keeps (the palette's pull on the jitter
+    falls with it).
     """
 
     width: float
@@ -87,6 +89,7 @@ class Brush:
     swirl: float = 0.0
     strength: float = 1.0
     seed: int = 0
+    fidelity: float = 0.0
 
     def widths(self, texel):
         """The dab widths of the layers that can be drawn with texels ``texel`` long."""
@@ -297,7 +300,8 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(count) - 1.0))
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         parts.append(Dabs(points, normals, direction, length, np.full(count, width),
-                          _jittered(colour, brush.jitter, lab_palette, rng), pieces.astype(np.int64),
+                          _jittered(colour, brush.jitter, lab_palette, rng, 1.0 - brush.fidelity),
+                          pieces.astype(np.int64),
                           2 * np.pi * rng.random(count), np.full(count, layer), faces, bary))
     return Dabs.concatenate(parts)
 
@@ -320,14 +324,14 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
     return read.reshape(len(points), k, -1).mean(axis=1)
 
 
-def _jittered(colours, jitter, lab_palette, rng):
-    """sRGB colours (n, 3), each moved by up to ``jitter`` towards one of the three palette colours
+def _jittered(colours, jitter, lab_palette, rng, pull=1.0):
+    """sRGB colours (n, 3), each moved by up to ``jitter * pull`` towards one of the three palette colours
     nearest to it, and its lightness by a little noise."""
     lab = to_oklab(colours)
     if jitter > 0 and lab_palette is not None:
         near = np.argsort(np.linalg.norm(lab[:, None, :] - lab_palette[None], axis=2), axis=1)[:, :3]
         pick = near[np.arange(len(lab)), rng.integers(0, near.shape[1], len(lab))]
-        lab += (jitter * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
+        lab += (jitter * pull * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
     lab[:, 0] += 0.06 * jitter * rng.standard_normal(len(lab))
     return from_oklab(lab)
 
@@ -454,17 +458,18 @@ def _uv_axes(dabs, texels):
 
 
 def _covering(dabs, sides, uv_axes, texels, which):
-    """The texels each dab of ``which`` covers: pairs of dabs ``i`` and texels ``j`` with the coverage
+    """The texels each dab of ``which`` (sorted indices) covers: pairs of dabs ``i`` and texels ``j`` with the coverage
     ``alpha`` (anti-aliased over a texel) and the texel's place in the dab (``along`` its length and
     ``across`` its width, each in [-1, 1])."""
     i, j = _raster_pairs(uv_axes, texels, which)
     found = _geometry(dabs, sides, texels, i, j)
-    area = np.bincount(found[0] - which[0], weights=found[2] * texels.lengths[found[1]] ** 2 * (found[1] < texels.covered),
-                       minlength=len(which))
+    place = np.searchsorted(which, found[0])                         # ``which`` is sorted
+    inside = found[1] < texels.covered
+    area = np.bincount(place, weights=found[2] * texels.lengths[found[1]] ** 2 * inside, minlength=len(which))
     whole = area >= WHOLE * _AREA * dabs.length[which] * dabs.width[which]
     if whole.all():
         return found
-    keep = whole[found[0] - which[0]]
+    keep = whole[place]
     searched = _geometry(dabs, sides, texels, *_ball_pairs(dabs, texels, which[~whole]))
     return tuple(np.concatenate([a[keep], b]) for a, b in zip(found, searched))
 

@@ -3,8 +3,10 @@
 - :func:`photo_sphere`: a UV sphere (longest side 2) wearing an equirectangular
   photograph through its own UVs, as plain arrays;
 - :func:`psnr`, :func:`edge_sharpness`: a denoiser against the clean picture;
-- :func:`coherence`, :func:`stroke_aspect`, :func:`star_yellows`,
-  :func:`luminance_correlation`: what a painterly look draws;
+- :func:`edge_survival`, :func:`hue_difference`, :func:`speckle`,
+  :func:`dab_aspects`: whether a painterly look keeps the subject (its
+  strongest edges and its hues), draws no speckle, and paints dabs 3 to 5
+  times longer than wide;
 - :func:`hull_excess`: how far colours lie outside the input colours' hull.
 
 The images measured are equirectangular (the sphere's own UVs): a texel is
@@ -18,8 +20,8 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull
 
-__all__ = ["photo_sphere", "psnr", "edge_sharpness", "coherence", "stroke_aspect", "star_yellows",
-           "luminance_correlation", "hull_excess", "luminance", "equator_rows"]
+__all__ = ["photo_sphere", "city_plane", "psnr", "edge_sharpness", "edge_survival", "hue_difference", "speckle",
+           "dab_aspects", "hull_excess", "luminance", "equator_rows"]
 
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
 
@@ -51,6 +53,18 @@ def photo_sphere(segments=128, rings=64):
             faces += [[a, d, c], [a, c, b]]
             uvs += [[uv(r + 1, s), uv(r + 2, s), uv(r + 2, s + 1)], [uv(r + 1, s), uv(r + 2, s + 1), uv(r + 1, s + 1)]]
     return vertices, np.array(faces), np.array(uvs, dtype=np.float64)
+
+
+def city_plane(columns=128, rows=64):
+    """``(vertices, faces, uvs)`` of a flat 2 x 1 rectangle of triangles in the xy-plane with UVs over [0, 1]^2:
+    a picture frame for a photograph of twice its height in width."""
+    x, y = np.meshgrid(np.linspace(-1.0, 1.0, columns + 1), np.linspace(-0.5, 0.5, rows + 1))
+    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    index = np.arange(len(vertices)).reshape(rows + 1, columns + 1)
+    a, b, c, d = index[:-1, :-1].ravel(), index[:-1, 1:].ravel(), index[1:, 1:].ravel(), index[1:, :-1].ravel()
+    faces = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    uv = np.column_stack([(vertices[:, 0] + 1.0) / 2.0, vertices[:, 1] + 0.5])
+    return vertices, faces, uv[faces]
 
 
 def luminance(image):
@@ -92,81 +106,102 @@ def edge_sharpness(result, clean, share=0.02):
     return float(np.median(along))
 
 
-def _tensor(image, scale_px):
-    gx, gy = _gradient(luminance(image))
-    smooth = (lambda a: ndimage.gaussian_filter(a, scale_px, mode=("nearest", "wrap")))
-    return smooth(gx * gx), smooth(gx * gy), smooth(gy * gy)
+def _colour_gradient(image, sigma_px):
+    """The colour gradient's size (H, W): the root of the summed squared Gaussian derivatives (deviation
+    ``sigma_px``) of the image's three OKLab channels."""
+    from cp_stylize.oklab import to_oklab
+
+    lab = to_oklab(np.clip(np.asarray(image, dtype=np.float64)[..., :3], 0, 1))
+    total = np.zeros(lab.shape[:2])
+    for c in range(3):
+        gy = ndimage.gaussian_filter(lab[..., c], sigma_px, order=(1, 0), mode="nearest")
+        gx = ndimage.gaussian_filter(lab[..., c], sigma_px, order=(0, 1), mode="nearest")
+        total += gx * gx + gy * gy
+    return np.sqrt(total)
 
 
-def coherence(image, scale_px, mask=None):
-    """Mean orientation coherence ``|J|_aniso / tr J`` of the structure tensor integrated at ``scale_px``
-    (over the texels of ``mask``, where given)."""
-    jxx, jxy, jyy = _tensor(image, scale_px)
-    c = np.sqrt((jxx - jyy) ** 2 + 4 * jxy ** 2) / np.maximum(jxx + jyy, 1e-12)
-    return float(np.mean(c if mask is None else c[mask]))
+def _inner(mask, reach):
+    """The texels of ``mask`` whose neighbours within ``reach`` texels are all in it (or all, without one)."""
+    if mask is None:
+        return None
+    return ndimage.binary_erosion(mask, iterations=max(1, int(np.ceil(reach))))
 
 
-def stroke_aspect(image, scale_px=2.0, reach=40, mask=None):
-    """Mean stroke length over width: correlation lengths along and across the local orientation.
+def edge_survival(result, source, scale_px, mask=None, share=0.02):
+    """The share of the source's strongest edges that are still edges in the result, above chance.
 
-    The luminance, less its blur at ``reach / 2`` texels, is correlated
-    with itself shifted by ``d`` texels along each texel's own stroke
-    direction (the structure tensor's smaller eigenvector, integrated over
-    ``scale_px``), so that strokes that swirl are followed, and across it.
-    The distances where the correlation over all texels falls to one half
-    are the strokes' length and width; returns their ratio.  With ``mask``,
-    only pairs of texels both in it count (an atlas's islands).
+    At the scale of a stroke's width (Gaussian derivatives of deviation
+    ``scale_px``, half the stroke's width in texels), the source's
+    strongest edges are its ``share`` of texels with the largest OKLab colour
+    gradient; the result's edges are its own strongest ``5 * share`` of
+    texels, widened by ``scale_px`` (an edge may move by a little).  A source
+    edge survives where a result edge lies.  Random strokes put result edges
+    on ``chance``, the share of all texels the widened result edges cover;
+    the score is ``(hit - chance) / (1 - chance)``: 1 when every strong edge
+    survives, 0 when no more survive than at random.  Only texels whose
+    neighbours within three deviations lie in ``mask`` count.
     """
-    lum = luminance(image)
-    lum = lum - ndimage.gaussian_filter(lum, reach / 2, mode=("nearest", "wrap"))
-    jxx, jxy, jyy = _tensor(image, scale_px)
-    angle = 0.5 * np.arctan2(2 * jxy, jxx - jyy) + np.pi / 2      # along the strokes (x = columns)
-    rows, cols = np.mgrid[0:lum.shape[0], 0:lum.shape[1]].astype(np.float64)
-    inner = (slice(reach, -reach), slice(None))
-    base = lum[inner].ravel()
-    inside = np.ones(base.shape, bool) if mask is None else mask[inner].ravel()
-    lengths = []
-    for a in (angle, angle + np.pi / 2):
-        dr, dc = np.sin(a), np.cos(a)
-        corr = [1.0]
-        steps = np.arange(0.5, reach, 0.5)
-        for d in steps:
-            at = [rows + d * dr, cols + d * dc]
-            moved = ndimage.map_coordinates(lum, at, order=1, mode="grid-wrap")[inner].ravel()
-            both = inside
-            if mask is not None:
-                both = inside & (ndimage.map_coordinates(mask.astype(float), at, order=0, mode="grid-wrap")[inner].ravel() > 0)
-            corr.append(float(np.corrcoef(base[both], moved[both])[0, 1]))
-            if corr[-1] < 0.5:
-                break
-        corr = np.array(corr)
-        steps = np.concatenate([[0.0], steps[:len(corr) - 1]])
-        if corr[-1] >= 0.5:
-            lengths.append(steps[-1])
-        else:
-            k = len(corr) - 1
-            lengths.append(steps[k - 1] + (corr[k - 1] - 0.5) / (corr[k - 1] - corr[k]) * (steps[k] - steps[k - 1]))
-    return float(lengths[0] / lengths[1])
+    inner = _inner(mask, 3 * scale_px)
+    valid = np.ones(np.shape(source)[:2], bool) if inner is None else inner
+    source_edges, result_edges = _colour_gradient(source, scale_px), _colour_gradient(result, scale_px)
+    strong = valid & (source_edges >= np.quantile(source_edges[valid], 1.0 - share))
+    edges = valid & (result_edges >= np.quantile(result_edges[valid], 1.0 - 5 * share))
+    near = ndimage.binary_dilation(edges, iterations=max(1, int(round(scale_px))))
+    hit, chance = float(near[strong].mean()), float(near[valid].mean())
+    return (hit - chance) / (1.0 - chance)
 
 
-def star_yellows(image):
-    """Share of texels that are star yellows: hue 35-70 degrees, saturation >= 0.35, value >= 0.6."""
-    rgb = np.asarray(image, dtype=np.float64)[..., :3].reshape(-1, 3)
-    high, low = rgb.max(axis=1), rgb.min(axis=1)
-    sat = np.where(high > 0, (high - low) / np.maximum(high, 1e-12), 0.0)
-    r, g, b = rgb.T
+def _hsv(image):
+    rgb = np.asarray(image, dtype=np.float64)[..., :3]
+    high, low = rgb.max(axis=-1), rgb.min(axis=-1)
+    saturation = np.where(high > 0, (high - low) / np.maximum(high, 1e-12), 0.0)
+    r, g, b = np.moveaxis(rgb, -1, 0)
     hue = np.degrees(np.arctan2(np.sqrt(3) * (g - b), 2 * r - g - b)) % 360
-    return float(np.mean((hue >= 35) & (hue <= 70) & (sat >= 0.35) & (high >= 0.6)))
+    return hue, saturation, high
 
 
-def luminance_correlation(result, source, sigma_px, mask=None):
-    """Pearson correlation of the two luminances, each blurred by a Gaussian of ``sigma_px`` texels
-    (over the texels of ``mask``, where given)."""
-    a = ndimage.gaussian_filter(luminance(result), sigma_px, mode=("nearest", "wrap"))
-    b = ndimage.gaussian_filter(luminance(source), sigma_px, mode=("nearest", "wrap"))
+def hue_difference(result, source, mask=None, saturation=0.3):
+    """The median hue difference in degrees (HSV hue) between result and source over the source's
+    saturated texels (HSV saturation above ``saturation``, in ``mask``); and how many there were."""
+    hue_r, _, _ = _hsv(result)
+    hue_s, sat_s, _ = _hsv(source)
+    chosen = sat_s > saturation
     if mask is not None:
-        a, b = a[mask], b[mask]
-    return float(np.corrcoef(a.ravel(), b.ravel())[0, 1])
+        chosen &= mask
+    difference = np.abs((hue_r - hue_s + 180.0) % 360.0 - 180.0)[chosen]
+    return (float(np.median(difference)) if len(difference) else 0.0), int(chosen.sum())
+
+
+def speckle(result, mask=None, threshold=0.25):
+    """The share of texels whose luminance differs from the median of their 3 x 3 neighbours by more
+    than ``threshold`` (over the texels of ``mask`` whose 3 x 3 neighbours all lie in it)."""
+    lum = luminance(result)
+    inner = _inner(mask, 1)
+    off = np.abs(lum - ndimage.median_filter(lum, size=3, mode="nearest")) > threshold
+    return float(off.mean() if inner is None else off[inner].mean())
+
+
+def dab_aspects(dabs, texels, sample=500, seed=0):
+    """Length over width (M,) of the drawn footprints of ``sample`` dabs: the extent of the texels each
+    covers by more than half, along and across its direction (on the surface, before any later dab
+    covers it)."""
+    from cp_stylize import strokes
+
+    rng = np.random.default_rng(seed)
+    which = np.sort(rng.choice(len(dabs), size=min(sample, len(dabs)), replace=False))
+    sides = np.cross(dabs.normal, dabs.direction)
+    i, j, alpha, _, _ = strokes._covering(dabs, sides, strokes._uv_axes(dabs, texels), texels, which)
+    i, j = i[alpha > 0.5], j[alpha > 0.5]
+    delta = texels.points[j] - dabs.centre[i]
+    along = np.einsum("ij,ij->i", delta, dabs.direction[i])
+    across = np.einsum("ij,ij->i", delta, sides[i])
+    aspects = []
+    for d in np.unique(i):
+        mine = i == d
+        length = np.ptp(along[mine]) + texels.lengths[j[mine]].mean()
+        width = np.ptp(across[mine]) + texels.lengths[j[mine]].mean()
+        aspects.append(length / width)
+    return np.array(aspects)
 
 
 def hull_excess(result, colours):
@@ -179,97 +214,157 @@ def hull_excess(result, colours):
     return worst
 
 
-def _sphere_run(settings, image, uvs, vertices, faces):
+#: The painterly presets the looks command measures.
+PAINTERLY = ("starry_night", "van_gogh_form", "sunflower_vase")
+
+
+def subjects(folder):
+    """The three subjects: name -> ``(vertices, faces, uvs, image, wrap)``: the forest photograph on a UV
+    sphere, the demo's Suzanne wearing it, and Blender's city photograph (buildings, a crane, road
+    markings) in a 2 x 1 frame.  Needs Blender's Python module (for the photographs and Suzanne)."""
+    import os
+
+    from .demo import save_mesh_arrays
+    from .scene import photo_texture
+
+    vertices, faces, uvs = photo_sphere()
+    found = {"sphere": (vertices, faces, uvs, photo_texture("forest"), ("repeat", "clamp"))}
+    arrays = np.load(save_mesh_arrays(os.path.join(folder, "suzanne.npz")))
+    found["suzanne"] = (arrays["vertices"], arrays["faces"], arrays["uvs"], arrays["image"], ("repeat", "repeat"))
+    vertices, faces, uvs = city_plane()
+    found["city"] = (vertices, faces, uvs, photo_texture("city"), ("clamp", "clamp"))
+    return found
+
+
+def _run(subject, settings, size):
     from cp_stylize.pipeline import ColourInput, Texture, stylize
 
-    colours = ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool), ("repeat", "clamp"))])
-    result = stylize(vertices, faces, colours, settings, uvs=uvs)
-    return result
+    vertices, faces, uvs, image, wrap = subject
+    colours = ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool), wrap)])
+    return stylize(vertices, faces, colours, settings.replace(image_size=size), uvs=uvs)
 
 
-def _painterly(out, source, unit, mask=None):
-    """The painterly measures of an image against its source, ``unit`` object units a texel."""
-    return {"coherence_0.12": coherence(out, 0.12 / unit, mask), "coherence_0.018": coherence(out, 0.018 / unit, mask),
-            "stroke_aspect": stroke_aspect(out, mask=mask),
-            "star_yellows": star_yellows(out if mask is None else out[mask]),
-            "luminance_correlation": luminance_correlation(out, source, 0.03 / unit, mask)}
+def _texel(subject, result):
+    """The median texel length of a run's atlas on the subject, in the units its settings use."""
+    from cp_stylize.baking import texel_lengths
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.pipeline import normalisation
+
+    vertices, faces = subject[0], subject[1]
+    centre, scale = normalisation(vertices, faces)
+    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+    return float(np.median(texel_lengths(mesh, result.atlas, result.atlas.face)))
 
 
-def run(out_dir="looks_out", *, size=1024, log=print):
-    """The looks' figures on the forest-photo sphere and on the demo's Suzanne; returns them as a dict.
+def _dabs(subject, settings, result):
+    """The run's dabs and the atlas's texels, made again as the run made them (for :func:`dab_aspects`)."""
+    from cp_stylize import Band
+    from cp_stylize.baking import atlas_points, texel_lengths
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.palette import map_to_palette
+    from cp_stylize.pipeline import ColourInput, Texture, normalisation, sample_colours, stencil_for
+    from cp_stylize.strokes import Brush, Texels, place_dabs
 
-    Each run at the presets' own grid spacing (Standard), 1024 x 1024 atlases on the objects' own UVs.
-    """
+    vertices, faces, uvs, image, wrap = subject
+    centre, scale = normalisation(vertices, faces)
+    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+    band = Band.build(mesh, settings.spacing, stencil=stencil_for(settings.mode))
+    sampled = sample_colours(band, ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool), wrap)]))
+    values = map_to_palette(sampled, settings.palette, settings.palette_weights or None, fidelity=settings.fidelity)
+    atlas = result.atlas
+    flat, points, face, bary = atlas_points(mesh, atlas, settings.margin)
+    texels = Texels(points, mesh.normal(points, face, bary), mesh.piece[face], texel_lengths(mesh, atlas, face), flat,
+                    len(atlas.texels), atlas.size, atlas.uvs, mesh.vertices[mesh.input_faces])
+    brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
+                  jitter=settings.stroke_jitter, swirl=settings.swirl, seed=settings.seed)
+    return place_dabs(mesh, band, values, brush, texel=float(np.median(texels.lengths)), palette=settings.palette,
+                      weights=settings.palette_weights or None), texels
+
+
+def _denoisers(sphere, near_zero, size, out_dir, log):
+    """A run that changes nothing, and the denoisers on the forest photograph with noise, on the sphere."""
     import os
 
     from cp_stylize.presets import load_preset
     from cp_stylize.texture import bilinear, texel_centres, write_png
 
-    from . import scene
-
-    os.makedirs(out_dir, exist_ok=True)
-    photo = scene.photo_texture("forest")
-    vertices, faces, uvs = photo_sphere()
+    vertices, faces, uvs, photo, wrap = sphere
     u, v = texel_centres(size, size)
-    clean = bilinear(photo, np.column_stack([u.ravel(), v.ravel()]), wrap=("repeat", "clamp")).reshape(size, size, 3)
+    clean = bilinear(photo, np.column_stack([u.ravel(), v.ravel()]), wrap=wrap).reshape(size, size, 3)
     rows = equator_rows(size)
-    unit = 2 * np.pi / size
     figures = {}
 
-    def sphere(name, settings, image):
-        result = _sphere_run(settings.replace(image_size=size), image, uvs, vertices, faces)
+    def on_sphere(name, settings, image):
+        result = _run((vertices, faces, uvs, image, wrap), settings, size)
         write_png(os.path.join(out_dir, f"sphere_{name}.png"), result.image)
-        excess = hull_excess(result.image[result.atlas.coverage.reshape(size, size)],
-                             np.vstack([image.reshape(-1, 3), np.array(settings.palette).reshape(-1, 3)]))
-        log(f"  sphere {name}: {result.seconds:.0f} s, {result.band_size:,} band points, outside the input "
-            f"colours' hull by at most {excess:.4f}")
+        excess = hull_excess(result.image[result.atlas.coverage.reshape(size, size)], image.reshape(-1, 3))
         return result.image[rows], excess
 
-    near_zero = load_preset("denoise_eed").replace(T=1e-6)
-    out, excess = sphere("time0", near_zero, clean)
+    out, excess = on_sphere("time0", near_zero, clean)
     figures["time0"] = {"psnr": psnr(out, clean[rows]), "hull_excess": excess}
-    out, _ = sphere("time0_detail0", near_zero.replace(detail=0.0), clean)
+    out, _ = on_sphere("time0_detail0", near_zero.replace(detail=0.0), clean)
     figures["time0"]["psnr_band_only"] = psnr(out, clean[rows])
     log(f"time ~0 (T = 1e-6): {figures['time0']['psnr']:.1f} dB; without the detail "
         f"{figures['time0']['psnr_band_only']:.1f} dB")
-
     noisy = np.clip(clean + np.random.default_rng(1).normal(0, 0.1, clean.shape), 0, 1).astype(np.float32)
     figures["noisy"] = {"psnr": psnr(noisy[rows], clean[rows]), "edges": edge_sharpness(noisy[rows], clean[rows])}
     log(f"noisy photo (std 0.1): {figures['noisy']['psnr']:.2f} dB, edges {figures['noisy']['edges']:.2f}")
     for name in ("denoise_eed", "perona_malik"):
-        out, excess = sphere(name, load_preset(name), noisy)
+        out, excess = on_sphere(name, load_preset(name), noisy)
         figures[name] = {"psnr": psnr(out, clean[rows]), "edges": edge_sharpness(out, clean[rows]),
                          "hull_excess": excess}
         log(f"{name}: {figures[name]['psnr']:.2f} dB ({figures[name]['psnr'] - figures['noisy']['psnr']:+.2f}), "
             f"edges {figures[name]['edges']:.2f}")
+    return figures
 
-    for name in ("starry_night", "starry_night_paper"):
-        out, excess = sphere(name, load_preset(name), clean)
-        figures[f"sphere_{name}"] = {**_painterly(out, clean[rows], unit), "hull_excess": excess}
-        log(f"{name} on the sphere: " + ", ".join(f"{k} {v:.2f}" for k, v in figures[f"sphere_{name}"].items()))
 
-    # Suzanne: the demo's object and photograph; measured over her atlas's islands
-    from cp_stylize.pipeline import ColourInput, Texture, stylize
+def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, log=print):
+    """The painterly presets' measures on the three subjects (see :func:`subjects`); returns them as a dict.
 
-    from .demo import save_mesh_arrays
+    Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
+    subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
+    ``out_dir``.  The denoisers are measured first, on the forest sphere with noise.
+    """
+    import os
+    import tempfile
 
-    arrays = np.load(save_mesh_arrays(os.path.join(out_dir, "suzanne.npz")))
-    colours = ColourInput(textures=[Texture(arrays["image"], arrays["uvs"], np.ones(len(arrays["faces"]), bool))])
+    from cp_stylize.presets import load_preset
+    from cp_stylize.texture import write_png
 
-    def suzanne(settings):
-        return stylize(arrays["vertices"], arrays["faces"], colours, settings.replace(image_size=size),
-                       uvs=arrays["uvs"])
-
-    source = suzanne(near_zero)
-    mask = source.atlas.coverage.reshape(size, size)
-    v, f = arrays["vertices"], arrays["faces"]
-    scale = 2.0 / float(np.ptp(v[np.unique(f)], axis=0).max())
-    area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum() * scale**2
-    texel = float(np.sqrt(area / mask.sum()))          # object units a texel, on average over the islands
-    for name in ("starry_night", "starry_night_paper"):
-        result = suzanne(load_preset(name))
-        write_png(os.path.join(out_dir, f"suzanne_{name}.png"), result.image)
-        figures[f"suzanne_{name}"] = _painterly(result.image, source.image, texel, mask)
-        log(f"{name} on Suzanne ({result.seconds:.0f} s): "
-            + ", ".join(f"{k} {v:.2f}" for k, v in figures[f"suzanne_{name}"].items()))
+    os.makedirs(out_dir, exist_ok=True)
+    figures = {}
+    with tempfile.TemporaryDirectory() as folder:
+        found = subjects(folder)
+    near_zero = load_preset("denoise_eed").replace(T=1e-6)
+    figures.update(_denoisers(found["sphere"], near_zero, size, out_dir, log))
+    for subject_name, subject in found.items():
+        source = _run(subject, near_zero, size)
+        mask = source.atlas.coverage.reshape(size, size)
+        if subject_name == "sphere":
+            mask &= np.isin(np.arange(size), np.arange(size)[equator_rows(size)])[:, None]
+        texel = _texel(subject, source)
+        for name in presets:
+            settings = load_preset(name)
+            result = _run(subject, settings, size)
+            write_png(os.path.join(out_dir, f"{subject_name}_{name}.png"), result.image)
+            if result.height is not None:
+                height = result.height / max(float(result.height.max()), 1e-12)
+                write_png(os.path.join(out_dir, f"{subject_name}_{name}_relief.png"), height[..., None])
+            half = _run(subject, settings.replace(fidelity=0.5), size)
+            scale_px = 0.5 * settings.stroke_width / texel
+            hue, counted = hue_difference(half.image, source.image, mask)
+            dabs, texels = _dabs(subject, settings, result)
+            aspects = dab_aspects(dabs, texels)
+            figures[f"{subject_name}_{name}"] = row = {
+                "edges": edge_survival(result.image, source.image, scale_px, mask),
+                "hue_at_fidelity_half": hue, "saturated_texels": counted,
+                "speckle": speckle(result.image, mask),
+                "dab_aspect": [float(np.min(dabs.aspect)), float(np.max(dabs.aspect))],
+                "drawn_aspect": [float(np.quantile(aspects, 0.05)), float(np.median(aspects)),
+                                 float(np.quantile(aspects, 0.95))],
+                "seconds": result.seconds}
+            log(f"{subject_name:8s} {name:15s} edges {row['edges']:.2f}, hue at fidelity 0.5 {hue:.1f} degrees "
+                f"({counted:,} texels), speckle {100 * row['speckle']:.3f} %, dabs {row['dab_aspect'][0]:.2f} to "
+                f"{row['dab_aspect'][1]:.2f} long over wide (drawn: median {row['drawn_aspect'][1]:.2f}), "
+                f"{result.seconds:.0f} s")
     return figures
