@@ -19,7 +19,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "NOISE_MAPPINGS", "check_value"]
+           "DIRECTED_MODES", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,6 +74,9 @@ RUN = {p.name: p for p in (
                                               "of 2); finer than a texel they blur", 0.001, 0.1, 0.01, "length",
               precision=4, step=0.1),
 )}
+
+#: Seeds of the random noise: whole numbers a 32-bit integer holds, as Blender's integer properties do.
+SEED_LIMITS = (0, 2**31 - 1)
 
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
 FILTER_PARAMETERS = {p.name: p for p in (

@@ -33,9 +33,11 @@ class CP_STYLIZE_MT_presets(bpy.types.Menu):
     bl_label = "Presets"
 
     def draw(self, context):
+        from ..presets import preset_menu
+
         layout = self.layout
-        for name in operators.all_presets():
-            layout.operator("cp_stylize.preset_load", text=bpy.path.display_name(name)).name = name
+        for key, label in preset_menu(operators.user_folders()):
+            layout.operator("cp_stylize.preset_load", text=label).name = key
 
 
 def _split(layout):
@@ -62,7 +64,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         row.menu("CP_STYLIZE_MT_presets", text=settings.preset_name or "Presets")
         row.operator("cp_stylize.preset_add", text="", icon="ADD")
         remove = row.operator("cp_stylize.preset_remove", text="", icon="REMOVE")
-        remove.name = bpy.path.clean_name(settings.preset_name).lower()
+        remove.name = settings.preset_key
 
         layout = _split(self.layout)
         layout.prop(settings, "mode")

@@ -698,7 +698,7 @@ def test_edit_mode_is_refused_by_the_poll_with_a_reason(addon):
 @pytest.mark.parametrize("text, message", [
     ('mode = "ced"\nspacing = 5.0\n', "spacing must lie in [0.002, 0.1], got 5.0"),
     ('mode = "ced"\nT = 1000.0\n', "T must lie in [1e-06, 0.1], got 1000.0"),
-    ('mode = "ced"\n[params]\nrho = 3.0\n', "rho must lie in [0, 0.05], got 3.0"),
+    ('mode = "ced"\n[params]\nrho = 3.0\n', "[params] rho must lie in [0, 0.05], got 3.0"),
 ])
 def test_presets_keep_the_panels_limits(addon, tmp_path, text, message):
     sphere(material=image_material("Painted", halves("source")))
