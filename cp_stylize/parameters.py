@@ -7,7 +7,8 @@ each mode takes and their defaults.  The core's validation
 add-on's properties and panel, and the README's tables are all built from
 these, so a new parameter or mode is an edit in this file.
 
-Units are those of an object normalised to a longest side of 2 (paper,
+Units are those of an object normalised to a diameter of 2 (the greatest
+distance between two points of its surface: a sphere of radius 1; paper,
 section 4.5): ``"time"`` is a diffusion time in squared lengths, ``"length"``
 a length, ``"ratio"`` a number relative to the input's own contrast or a
 fraction.
@@ -55,10 +56,10 @@ def check_value(name, value, minimum, maximum):
 
 #: The run's own parameters.
 RUN = {p.name: p for p in (
-    Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to 2): how far the "
+    Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to a diameter of 2): how far the "
                            "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time"),
-    Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a longest "
-                                         "side of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
+    Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a "
+                                         "diameter of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
     Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
                                          "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
     Parameter("noise_spread", "Spread", "Tone noise: how far from its own tone a point may pick its palette "
@@ -68,9 +69,9 @@ RUN = {p.name: p for p in (
                                   "back the texture; 0: the grid's resolution)", 0.0, 1.0, 1.0),
     Parameter("strokes", "Strokes", "Brush strokes at the texture's resolution, drawn along the result's flow in "
                                     "the palette's colours, this strong (0: none; needs a palette)", 0.0, 1.0, 0.0),
-    Parameter("stroke_length", "Stroke Length", "Length of the brush strokes (object normalised to a longest "
-                                                "side of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
-    Parameter("stroke_width", "Stroke Width", "Width of the brush strokes (object normalised to a longest side "
+    Parameter("stroke_length", "Stroke Length", "Length of the brush strokes (object normalised to a "
+                                                "diameter of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
+    Parameter("stroke_width", "Stroke Width", "Width of the brush strokes (object normalised to a diameter "
                                               "of 2); finer than a texel they blur", 0.001, 0.1, 0.01, "length",
               precision=4, step=0.1),
 )}

@@ -1,7 +1,8 @@
 """The whole stylization of a textured triangle mesh, from colours in to an atlas image out.
 
-1. Normalise the mesh so that its longest side is 2 (the paper's scale, so a
-   setting looks the same whatever the object's size).
+1. Normalise the mesh so that its diameter is 2 (the paper's scale, so a
+   setting looks the same whatever the object's size and however it is
+   turned).
 2. Decide the output's UV atlas (first, so that a mesh that cannot get one
    fails before the long part).
 3. Build the closest point band around the mesh.
@@ -30,7 +31,8 @@ from .colours import ColourHull
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
-from .mesh import TriangleMesh
+from .extent import diameter
+from .mesh import TriangleMesh, surface_faces
 from .noise import LUMA, inject_noise, tone_noise
 from .strokes import Strokes, line_field, streak_steps
 from .sampling import texture_at
@@ -39,8 +41,9 @@ __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate",
            "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours",
            "stylize", "estimate", "estimate_run"]
 
-#: Every object is scaled so that its longest side is this long (the paper's scale).
-NORMAL_LENGTH = 2.0
+#: Every object is scaled so that its diameter (the greatest distance between two points of its surface)
+#: is this long: the paper's scale, at which a sphere has radius 1.
+NORMAL_DIAMETER = 2.0
 
 #: Heat flow time, in h^2, that evens out the shape operator of a mesh before its principal
 #: directions are taken (the interpolated normals bend face by face).
@@ -54,11 +57,15 @@ KEEP_BAKE_TEXELS = 1 << 20
 
 
 def normalisation(vertices, faces):
-    """``(centre, scale)`` that map the mesh to a longest side of 2 centred at the origin.
+    """``(centre, scale)`` that map the mesh's surface to a diameter of 2 centred at the origin.
 
-    The box is that of the vertices the faces use: loose vertices, which the
-    surface does not have, do not count.  Raises ValueError for a mesh with
-    no extent or with positions that are not finite numbers.
+    Only what the surface has counts: the vertices of its faces that have an
+    area (:func:`cp_stylize.mesh.surface_faces`), so loose vertices and faces
+    whose corners lie on a line or at one point change nothing.  The diameter
+    (:func:`cp_stylize.extent.diameter`) does not change when the mesh is
+    turned, so neither does the grid's spacing relative to the surface; the
+    centre is that of the surface's box.  Raises ValueError for a mesh
+    without surface or with positions that are not finite numbers.
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces)
@@ -66,12 +73,19 @@ def normalisation(vertices, faces):
         raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
     if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
         raise ValueError(f"faces must have shape (F, 3) with F > 0, got {faces.shape}")
-    used = vertices[np.unique(faces)]
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces.ravel()] = True
+    if not np.all(np.isfinite(vertices[used])):
+        raise ValueError("the mesh has vertex positions that are not finite numbers")
+    surface = surface_faces(vertices, faces)
+    if not surface.any():
+        raise ValueError(f"the mesh has no surface: the corners of each of its {len(faces):,} face(s) lie on a "
+                         "line or at one point")
+    used[:] = False
+    used[faces[surface].ravel()] = True
+    used = vertices[used]
     lo, hi = used.min(axis=0), used.max(axis=0)
-    longest = float((hi - lo).max())
-    if not np.isfinite(longest) or longest <= 0:
-        raise ValueError(f"the mesh has no extent (longest side {longest!r})")
-    return 0.5 * (lo + hi), NORMAL_LENGTH / longest
+    return 0.5 * (lo + hi), NORMAL_DIAMETER / diameter(used)
 
 
 def stroke_field(band, settings, directions=None):
@@ -245,7 +259,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     faces : ndarray (F, 3)
     colours : ColourInput
     settings : StylizeSettings
-        Relative to an object whose longest side is 2.
+        Relative to an object whose diameter is 2.
     uvs : ndarray (F, 3, 2), optional
         The mesh's own per-corner UVs for the output atlas; used where usable,
         otherwise a new atlas is made (see :func:`cp_stylize.atlas.uv_atlas`).
@@ -307,7 +321,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
 
     band = cache.get("band", (shape, settings.spacing, stencil), new_band)
     lap("band")
-    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
+    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to a diameter of 2)")
     report(0.1)
     painted = (shape, settings.spacing, stencil, colour_digest(colours))
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))

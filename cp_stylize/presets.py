@@ -2,7 +2,7 @@
 
 All settings of a run travel as one frozen :class:`StylizeSettings`.  Lengths
 and times are relative to the object's size: the object is normalised so that
-its longest side is 2 (as in the paper), so a preset looks the same on a 2 cm
+its diameter is 2 (as in the paper: a sphere of radius 1), so a preset looks the same on a 2 cm
 object and on a 20 m one.
 
 A preset is a TOML file (see ``presets/`` at the top of the repository and of
@@ -11,8 +11,8 @@ the extension)::
     name = "Starry Night"
     description = "..."
     mode = "ced"          # one of cp_stylize.MODES
-    T = 1.1e-4            # stop time (object 2 units long)
-    spacing = 0.008       # grid spacing (object 2 units long)
+    T = 1.1e-4            # stop time (object 2 units across)
+    spacing = 0.008       # grid spacing (object 2 units across)
     detail = 1.0          # optional: the texture's own detail, finer than the grid, laid back (0 to 1)
     direction = "min"     # optional, CED and Flow: what the strokes follow (cp_stylize.parameters.DIRECTIONS)
     axis = [0, 0, 1]      # direction "axis": the axis, in the object's space
@@ -23,7 +23,7 @@ the extension)::
 
     [strokes]             # optional: brush strokes in the palette's colours (cp_stylize.strokes)
     strength = 1.0
-    length = 0.1          # object 2 units long
+    length = 0.1          # object 2 units across
     width = 0.01
 
     [noise]               # optional: replace a fraction of band points by palette colours
@@ -215,7 +215,7 @@ def _checked(values, labels):
 
 @dataclasses.dataclass(frozen=True)
 class StylizeSettings:
-    """Everything a stylization run needs, relative to an object whose longest side is 2.
+    """Everything a stylization run needs, relative to an object whose diameter is 2.
 
     Every field is checked when the settings are made: a ValueError names each
     bad one, what it must be and what it got.
@@ -300,7 +300,7 @@ class StylizeSettings:
         return {"mode": self.mode, "T": self.T, **self.params}
 
     def scaled(self, length):
-        """Absolute spacing and diffusion parameters for an object whose longest side is ``length``.
+        """Absolute spacing and diffusion parameters for an object whose diameter is ``length``.
 
         Lengths scale with ``length / 2`` and times with its square (paper, section 4.5).
         """

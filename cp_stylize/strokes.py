@@ -17,7 +17,7 @@ follow).  :class:`Strokes` lays strokes over the texels of the bake-out, seed
   palette colour (as :func:`cp_stylize.noise.tone_noise` does for band
   points): strokes of the palette's colours, in the picture's tones.
 
-Lengths are those of the object normalised to a longest side of 2, so the
+Lengths are those of the object normalised to a diameter of 2, so the
 strokes look the same on an object of any size.
 """
 

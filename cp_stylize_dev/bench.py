@@ -7,7 +7,7 @@ that its peak memory is its own):
    the paper's Fig. 4 parameters, h = 0.0125, 30 steps;
 2. ``suzanne``: the Starry Night (Paper) preset on Suzanne with two subdivision
    levels (the demo's textured object, read through Blender's Python module),
-   normalised to length 2, h = 0.008, RGB, a 1024 x 1024 atlas.
+   normalised to a diameter of 2, h = 0.008, RGB, a 1024 x 1024 atlas.
 
 For each it reports band points, the seconds of each stage (closest points
 and band with E, and of that E alone; the Laplacian L; bake-in; diffusion;
@@ -18,7 +18,7 @@ the time of one closest point extension of the state, ``band.extend`` on
 method can skip.  A table of single heat steps on the unit sphere follows.
 
 Then the scale cases, fast scheme only, each in a process of its own, with
-the demo's Suzanne at several subdivision levels (normalised to length 2,
+the demo's Suzanne at several subdivision levels (normalised to a diameter of 2,
 h = 0.008 unless said):
 
 - ``scan``: 1,007,616 triangles (subdivision 5), Starry Night; its closest

@@ -13,12 +13,16 @@ from .errors import StylizeError
 
 @dataclasses.dataclass
 class MeshData:
-    """An object's evaluated mesh (modifiers applied), triangulated, in world space.
+    """An object's evaluated mesh (modifiers applied), triangulated, in world units without its rotation.
 
-    Per-corner arrays are indexed by triangle and corner: ``(F, 3, ...)``.
+    The vertices are the object's own stretched by its world matrix without
+    the matrix's rotation and translation (:func:`shape_frame`): scale, shear
+    and mirroring apply, the rotation (the object's and its parents') does
+    not, so a turned object gives the core the same vertices.  Per-corner
+    arrays are indexed by triangle and corner: ``(F, 3, ...)``.
     """
 
-    vertices: np.ndarray            # (V, 3) world space
+    vertices: np.ndarray            # (V, 3) world units, without the world matrix's rotation and translation
     triangles: np.ndarray           # (F, 3) vertex indices
     loops: np.ndarray               # (F, 3) loop (face corner) indices
     material_index: np.ndarray      # (F,)
@@ -27,7 +31,7 @@ class MeshData:
     render_uv: str | None = None    # the UV map the renderer reads by default
     colours: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 3) sRGB-encoded
     render_colour: str | None = None
-    directions: np.ndarray | None = None   # (F, 3, 3) world space: the vector attribute read, if asked for
+    directions: np.ndarray | None = None   # (F, 3, 3) as the vertices: the vector attribute read, if asked for
 
 
 def _get(collection, attr, count, dtype, width=1):
@@ -108,11 +112,59 @@ def read(obj, depsgraph=None, *, corners=True, vectors=None):
         count = int(bad.sum())
         noun = "vertex whose position is" if count == 1 else "vertices whose positions are"
         raise StylizeError(f"the mesh of {obj.name!r} has {count} {noun} not a finite number")
-    matrix = np.array(obj.matrix_world, dtype=np.float64)
-    data.vertices = verts @ matrix[:3, :3].T + matrix[:3, 3]
+    shape = shape_frame(obj.matrix_world)
+    data.vertices = verts @ shape.T
+    _check_surface(obj.name, verts, data.vertices, tris)
     if data.directions is not None:
-        data.directions = data.directions @ matrix[:3, :3].T   # tangent vectors move with the surface
+        data.directions = data.directions @ shape.T   # tangent vectors move with the surface
     return data
+
+
+def shape_frame(matrix):
+    """The stretch ``S`` (3, 3) of a world matrix: the matrix without its rotation and translation.
+
+    The polar decomposition ``A = U S`` of the matrix's linear part (``U``
+    orthogonal, ``S`` symmetric with no negative eigenvalue, from the SVD
+    ``A = W D V^T``: ``U = W V^T``, ``S = V D V^T``) splits it into a rotation
+    (with any mirroring) and a stretch: world positions are ``U S x + t``,
+    the shape ``S x`` turned and moved.  Blender keeps the matrix in single
+    precision, so ``S`` is rounded to 2^-20 of its largest entry: a turned
+    matrix's rounding then does not reach the mesh, and a turned object gives
+    the same vertices as the object unturned.
+    """
+    matrix = np.array(matrix, dtype=np.float64)[:3, :3]
+    _, d, vt = np.linalg.svd(matrix)
+    stretch = vt.T @ np.diag(d) @ vt
+    largest = np.abs(stretch).max()
+    if largest > 0:
+        step = 2.0 ** (np.floor(np.log2(largest)) - 20)
+        stretch = np.round(stretch / step) * step
+    return stretch
+
+
+def axis_in_frame(obj, axis):
+    """A stroke axis in ``obj``'s own space as the core sees it (:func:`shape_frame`), or StylizeError where
+    the object's scale flattens it to nothing."""
+    shape = shape_frame(obj.matrix_world)
+    axis = np.asarray(axis, dtype=np.float64)
+    moved = shape @ axis
+    if np.linalg.norm(moved) <= 1e-6 * np.linalg.norm(shape, 2) * np.linalg.norm(axis):
+        shown = ", ".join(f"{a:g}" for a in axis)
+        raise StylizeError(f"{obj.name!r} is flattened along the stroke direction's axis ({shown}): its scale is 0 "
+                           "there, so the axis has no direction on its surface; choose another axis, or give the "
+                           "object a scale along it")
+    return tuple(float(a) for a in moved)
+
+
+def _check_surface(name, local, vertices, triangles):
+    """StylizeError unless some triangle has an area: one whose corners do not lie on a line or at one point."""
+    from ..mesh import surface_faces
+
+    if surface_faces(vertices, triangles).any():
+        return
+    why = ", as the object's scale flattens it" if surface_faces(local, triangles).any() else ""
+    raise StylizeError(f"the mesh of {name!r} has no surface to stylize: the corners of every face lie on a line "
+                       f"or at one point{why}")
 
 
 def fingerprint(obj):

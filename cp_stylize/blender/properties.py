@@ -1,7 +1,7 @@
 """The add-on's settings, stored on the scene as ``scene.cp_stylize``.
 
 Lengths and times are relative to the object's size: the object is normalised
-so that its longest side is 2 (as in the paper), so a setting looks the same on
+so that its diameter is 2 (as in the paper), so a setting looks the same on
 a 2 cm object and on a 20 m one.  The properties, their limits, defaults and
 descriptions come from :mod:`cp_stylize.parameters`, the core's one table.
 Each mode keeps its own filter parameters (``ced_rho``, ``eed_rho``, ...), so
@@ -16,7 +16,7 @@ import bpy
 
 from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS
 
-#: Grid spacing relative to an object whose longest side is 2, by quality.
+#: Grid spacing relative to an object whose diameter is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
 #: Run parameters shown as sliders (shares from 0 to 1).
@@ -84,9 +84,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         name="Quality",
         description="Grid spacing of the computational band, relative to the object's size",
         items=[
-            ("PREVIEW", "Preview", "Coarse grid (h = 0.016 for an object 2 units long): quick"),
-            ("STANDARD", "Standard", "h = 0.008 for an object 2 units long, the paper's grid"),
-            ("HIGH", "High", "h = 0.005 for an object 2 units long: fine strokes, about 2.5 times "
+            ("PREVIEW", "Preview", "Coarse grid (h = 0.016 for an object 2 units across): quick"),
+            ("STANDARD", "Standard", "h = 0.008 for an object 2 units across, the paper's grid"),
+            ("HIGH", "High", "h = 0.005 for an object 2 units across: fine strokes, about 2.5 times "
                              "the memory and time of Standard"),
             ("CUSTOM", "Custom", "Set the relative grid spacing yourself"),
         ],

@@ -309,8 +309,8 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         save_folder()
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
     if settings.stroke_direction == "axis":
-        # the axis is the object's; the core sees the mesh in world space
-        settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
+        # the axis is the object's; the core sees the mesh in world units without its rotation
+        settings = settings.replace(axis=meshdata.axis_in_frame(obj, settings.axis))
     if not output.keep:
         release()
     guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps)

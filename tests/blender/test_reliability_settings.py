@@ -224,3 +224,137 @@ def test_a_preset_name_of_300_characters_is_refused_with_a_message(presets, addo
         "a preset's name may be 64 characters long, and this one has 300: choose a shorter name")
     assert not presets.exists() or os.listdir(presets) == []
     assert_unchanged(before, snapshot())
+
+
+# -- 11. the object's rotation, and the size of its surface ------------------------------------------------
+
+
+def stylized_pixels(obj):
+    image = obj.material_slots[0].material.node_tree.nodes["cp_stylize"].image
+    w, h = image.size
+    buf = np.empty(w * h * 4, dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    return buf.reshape(h, w, 4)[..., :3]
+
+
+def striped_box(name="Box"):
+    """A cube 2 units a side wearing red and blue halves through its own UV map."""
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    obj = bpy.context.active_object
+    obj.name = name
+    obj.data.materials.append(image_material(f"{name} Paint", halves(f"{name} source")))
+    return obj
+
+
+def run_report(capfd, **kwargs):
+    capfd.readouterr()
+    assert bpy.ops.object.cp_stylize(**kwargs) == {"FINISHED"}
+    return capfd.readouterr().out
+
+
+def band_of(report):
+    """'N band points, grid spacing h' of a run's report."""
+    line = next(line for line in report.splitlines() if line.startswith("Info: stylized"))
+    return line[line.rindex("(") + 1:line.rindex(")")].split(", the last")[0]
+
+
+@pytest.mark.parametrize("direction", ["texture", "axis"])
+def test_turning_the_object_or_its_parent_changes_nothing(addon, capfd, direction):
+    import math
+
+    addon.mode, addon.time, addon.direction, addon.axis = "ced", 2e-4, direction, (1.0, 0.0, 0.0)
+    addon.keep = False
+    obj = striped_box()
+    obj.scale = (1.0, 0.5, 1.5)
+    first = run_report(capfd)
+    plain = stylized_pixels(obj).copy()
+    # the same object turned onto a corner, under a turned and mirrored parent
+    obj.rotation_euler = (math.radians(45), math.radians(35.264), math.radians(10))
+    bpy.ops.object.empty_add()
+    parent = bpy.context.active_object
+    parent.rotation_euler, parent.scale = (0.3, -1.1, 2.0), (-1.0, 1.0, 1.0)
+    obj.parent = parent
+    bpy.context.view_layer.objects.active = obj
+    bpy.context.view_layer.update()
+    before = snapshot()
+    second = run_report(capfd)
+    assert band_of(second) == band_of(first)                     # the same band points and grid spacing
+    np.testing.assert_array_equal(stylized_pixels(obj), plain)   # the core saw the same vertices
+    after = snapshot()
+    assert after["materials"]["Box Paint"] == before["materials"]["Box Paint"]
+
+
+def test_the_size_is_the_surfaces_diameter_whatever_way_the_mesh_is_turned(addon):
+    from cp_stylize.blender.operators import estimate
+
+    obj = striped_box()
+    h, n, _, _ = estimate(obj, addon.to_settings())
+    assert h == pytest.approx(0.016 * np.sqrt(12) / 2)            # the cube's diameter, its space diagonal
+    obj.data.transform(_turn(0.7, 0.4))                          # the mesh itself turned, not the object
+    obj.data.update()
+    h_turned, n_turned, _, _ = estimate(obj, addon.to_settings())
+    assert h_turned == pytest.approx(h, rel=1e-5) and abs(n_turned - n) < 0.03 * n
+
+
+def _turn(a, b):
+    import mathutils
+
+    return mathutils.Matrix.Rotation(a, 4, "X") @ mathutils.Matrix.Rotation(b, 4, "Z")
+
+
+# -- 12. only what the surface has counts ----------------------------------------------------------------
+
+
+def test_a_face_without_area_far_away_changes_nothing(addon, capfd):
+    import bmesh
+
+    from cp_stylize.blender.operators import estimate
+
+    obj = sphere(material=image_material("Painted", halves("source")))
+    h, n, _, _ = estimate(obj, addon.to_settings())
+    first = run_report(capfd)
+    plain = stylized_pixels(obj).copy()
+    mesh = bmesh.new()
+    mesh.from_mesh(obj.data)
+    corners = [mesh.verts.new((100.0 + k, 0.0, 0.0)) for k in range(3)]   # on a line: no area, no surface
+    mesh.faces.new(corners)
+    mesh.to_mesh(obj.data)
+    mesh.free()
+    assert estimate(obj, addon.to_settings())[:2] == (h, n)
+    second = run_report(capfd)
+    assert band_of(second) == band_of(first)
+    image = stylized_pixels(obj)
+    assert image.std() > 0.3 and image.std() == pytest.approx(plain.std(), abs=0.02)
+
+
+# -- messages ----------------------------------------------------------------------------------------------
+
+
+def test_an_axis_the_objects_scale_flattens_is_refused_by_name(addon):
+    addon.mode, addon.direction, addon.axis = "ced", "axis", (0.0, 0.0, 1.0)
+    obj = sphere(material=image_material("Painted", halves("source")))
+    obj.scale = (1.0, 1.0, 0.0)
+    before = snapshot()
+    assert error(bpy.ops.object.cp_stylize) == (
+        "'Ball' is flattened along the stroke direction's axis (0, 0, 1): its scale is 0 there, so the axis has no "
+        "direction on its surface; choose another axis, or give the object a scale along it")
+    assert_unchanged(before, snapshot())
+
+
+@pytest.mark.parametrize("flattened", [False, True])
+def test_a_mesh_of_faces_without_area_is_refused_by_name(addon, flattened):
+    mesh = bpy.data.meshes.new("Lines")
+    if flattened:   # a square standing in the xz-plane, which a scale of 0 along z makes a line
+        mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)], [], [(0, 1, 2, 3)])
+    else:
+        mesh.from_pydata([(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)], [], [(0, 1, 2), (1, 2, 3)])
+    obj = bpy.data.objects.new("Strokes", mesh)
+    bpy.context.collection.objects.link(obj)
+    if flattened:
+        obj.scale = (1.0, 1.0, 0.0)
+    bpy.context.view_layer.objects.active = obj
+    before = snapshot()
+    why = ", as the object's scale flattens it" if flattened else ""
+    assert error(bpy.ops.object.cp_stylize) == (
+        f"the mesh of 'Strokes' has no surface to stylize: the corners of every face lie on a line or at one point{why}")
+    assert_unchanged(before, snapshot())
