@@ -209,7 +209,8 @@ def run_scale(case, data, base=None):
     vertices, faces, uvs, colours = _scale_inputs(case, data)
     settings = load_preset(spec["preset"]).replace(spacing=spec["h"], image_size=spec["size"])
     cache = RunCache() if case == "rerun" else None
-    guess = estimate(vertices, faces, settings, keep=cache is not None, unwrap=uvs is None)
+    guess = estimate(vertices, faces, settings, keep=cache is not None, unwrap=uvs is None,
+                     image_pixels=colours.image_pixels)
     start = time.perf_counter()
     result = stylize(vertices, faces, colours, settings, uvs=uvs, cache=cache)
     figures = {"case": case, "triangles": int(len(faces)), "points": int(result.band_size),

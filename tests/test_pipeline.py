@@ -79,6 +79,23 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     assert estimate_run(100_000, kept, keep=True)[1] > estimate_run(100_000, kept)[1] + 2**28
     assert estimate_run(100_000, big_settings := ced.replace(image_size=4096), keep=True) == estimate_run(
         100_000, big_settings)
+    # the input images cost by the pixel: an 8192 x 8192 texture, read out and held, is 2 GiB and seconds more
+    photo = estimate_run(100_000, ced, image_pixels=8192**2)
+    assert photo[0] > s1 + 5 and photo[1] >= b1 + 2 * 2**30
+
+
+def test_the_estimate_counts_the_input_images(torus_mesh):
+    from cp_stylize.pipeline import estimate
+
+    vertices, faces, uvs = torus_mesh
+    colours = ColourInput(textures=[(np.zeros((2048, 1024, 3), np.float32), uvs, np.ones(len(faces), bool)),
+                                    (np.zeros((64, 64), np.float32), uvs, np.ones(len(faces), bool))])
+    assert colours.image_pixels == 2048 * 1024 + 64 * 64
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
+    plain = estimate(vertices, faces, settings, speed=1.0)
+    read = estimate(vertices, faces, settings, image_pixels=colours.image_pixels, speed=1.0)
+    assert read.bytes - plain.bytes == 32 * colours.image_pixels and read.seconds > plain.seconds
+    assert estimate(vertices, faces, settings, speed=2.0).seconds == pytest.approx(2 * plain.seconds)
 
 
 @pytest.mark.parametrize("vertices", [np.zeros((3, 3)), [[0, 0, 0], [1, 1, 1], [2, 2, 2]]])

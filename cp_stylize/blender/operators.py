@@ -28,8 +28,31 @@ def estimate(obj, settings, depsgraph=None):
 
     stylize.check_object(obj)
     mesh = meshdata.read(obj, depsgraph, corners=False)
-    guess = estimate_run(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not obj.data.uv_layers)
+    import numpy as np
+
+    index = np.zeros(len(obj.data.polygons), dtype=np.int32)
+    obj.data.polygons.foreach_get("material_index", index)
+    slots = np.unique(np.minimum(index, max(len(obj.material_slots) - 1, 0))).tolist()
+    guess = estimate_run(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not obj.data.uv_layers,
+                         image_pixels=stylize.input_pixels(obj, obj.data.uv_layers.keys(), slots, settings),
+                         speed=machine_speed())
     return guess.spacing, guess.band_points, guess.bytes, guess.seconds
+
+
+def machine_speed():
+    """The estimate's time factor for this computer (:func:`cp_stylize.calibration.machine_speed`).
+
+    Measured at the first estimate (well under a second, never when the
+    add-on is enabled) and kept in the extension's user folder, so that later
+    sessions read it; run from a checkout, not installed, it is kept in memory.
+    """
+    from ..calibration import machine_speed as speed
+
+    parts = __package__.split(".")
+    if parts[0] == "bl_ext" and len(parts) >= 3:
+        return speed(os.path.join(bpy.utils.extension_path_user(".".join(parts[:3]), create=True),
+                                  "calibration.json"))
+    return speed()
 
 
 def guarded(operator, work):

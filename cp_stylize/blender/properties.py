@@ -156,10 +156,12 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
     def output(self):
         """What to do with a run's result, and its limits (the Output panel)."""
+        from .operators import machine_speed
         from .stylize import Output
 
         return Output(image_name=self.image_name, target=self.target, storage=self.storage,
-                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep)
+                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep,
+                      speed=machine_speed())
 
     def from_settings(self, settings, key=""):
         """Set the filter properties from StylizeSettings (a loaded preset, ``key`` its key); output settings stay.

@@ -71,6 +71,7 @@ class Output:
     memory_limit: float = 8 * 2**30   # bytes
     time_limit: float = 15 * 60       # seconds
     keep: bool = True                 # keep what the run builds before its filter for the next run
+    speed: float = 1.0                # the estimate's time factor for this computer (cp_stylize.calibration)
 
 
 @dataclasses.dataclass
@@ -262,6 +263,22 @@ def _read_colours(obj, mesh, slots):
     return colours, to_bake
 
 
+def input_pixels(obj, uv_names, slots, settings):
+    """The pixels of the images a run on ``obj`` reads (material ``slots`` used): every image a material
+    reads directly, once for each material, and the bake's image where a colour must be baked."""
+    pixels, baked = 0, False
+    for index in slots:
+        material = obj.material_slots[index].material if len(obj.material_slots) else None
+        if material is None:
+            continue
+        source = materials.colour_source(material, uv_names, obj.name)
+        if isinstance(source, materials.ImageSource):
+            pixels += source.image.size[0] * source.image.size[1]
+        elif not isinstance(source, (materials.Flat, materials.AttributeSource)):
+            baked = True
+    return pixels + (settings.image_size ** 2 if baked else 0)
+
+
 def _bake_atlas(obj, mesh, settings, new_atlas, keep=True):
     """The output atlas a procedural bake reads through: the mesh's render UV map if usable, else a new one."""
     from ..atlas import UnusableUVs, uv_atlas
@@ -313,11 +330,12 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         settings = settings.replace(axis=meshdata.axis_in_frame(obj, settings.axis))
     if not output.keep:
         release()
-    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps)
-    check_limits(guess, output)
     slot_count = len(obj.material_slots)
     used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
     slots = [int(i) for i in used]
+    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps,
+                     image_pixels=input_pixels(obj, mesh.uv_maps.keys(), slots, settings), speed=output.speed)
+    check_limits(guess, output)
     for index in slots:
         if slot_count and obj.material_slots[index].material is not None:
             _check_writable(obj.material_slots[index].material, output)

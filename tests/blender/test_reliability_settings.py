@@ -358,3 +358,41 @@ def test_a_mesh_of_faces_without_area_is_refused_by_name(addon, flattened):
     assert error(bpy.ops.object.cp_stylize) == (
         f"the mesh of 'Strokes' has no surface to stylize: the corners of every face lie on a line or at one point{why}")
     assert_unchanged(before, snapshot())
+
+
+# -- 13. the estimate counts the input images, and follows the computer -----------------------------------
+
+
+def test_a_large_input_image_counts_in_the_estimate_and_the_limit_stops_the_run_before_it_is_read(addon,
+                                                                                                   monkeypatch):
+    from cp_stylize.blender import images, operators, stylize
+    from cp_stylize.pipeline import BYTES_PER_IMAGE_PIXEL
+
+    obj = sphere(material=image_material("Painted", halves("source", size=2048)))
+    settings = addon.to_settings()
+    h, n, with_image, seconds = operators.estimate(obj, settings)
+    obj.material_slots[0].material = bpy.data.materials.new("Flat")
+    _, _, plain, plain_seconds = operators.estimate(obj, settings)
+    assert with_image - plain == BYTES_PER_IMAGE_PIXEL * 2048**2 and seconds > plain_seconds
+    obj.material_slots[0].material = bpy.data.materials["Painted"]
+    addon.memory_limit = (plain + with_image) / 2 / 2**30       # room for the run, not for the image
+    monkeypatch.setattr(images, "display_colours", lambda *a: pytest.fail("the image was read"))
+    monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
+    before = snapshot()
+    assert error(bpy.ops.object.cp_stylize) == (
+        f"this run needs about {with_image / 2**30:.1f} GiB (about {n:,} band points), above the memory limit of "
+        f"{addon.memory_limit:.1f} GiB: lower the quality or raise the limit")
+    assert_unchanged(before, snapshot())
+
+
+def test_the_time_estimate_follows_the_computers_speed(addon, monkeypatch):
+    from cp_stylize import calibration
+    from cp_stylize.blender import operators
+
+    obj = sphere(material=image_material("Painted", halves("source")))
+    assert addon.output().speed == calibration.machine_speed()    # measured once, kept for the session
+    monkeypatch.setattr(operators, "machine_speed", lambda: 1.0)
+    _, _, nbytes, seconds = operators.estimate(obj, addon.to_settings())
+    monkeypatch.setattr(operators, "machine_speed", lambda: 3.0)   # a computer three times slower
+    assert operators.estimate(obj, addon.to_settings())[2:] == (nbytes, pytest.approx(3 * seconds))
+    assert addon.output().speed == 3.0
