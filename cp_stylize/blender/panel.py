@@ -9,13 +9,24 @@ from .properties import filter_property
 _estimate_cache = {}
 
 
+def _images(obj):
+    """The materials of ``obj`` and the sizes of their images: what the estimate's image cost depends on."""
+    found = []
+    for slot in obj.material_slots:
+        tree = slot.material.node_tree if slot.material else None
+        nodes = tree.nodes if tree else ()
+        found.append((slot.material and slot.material.name,
+                      tuple(tuple(n.image.size) for n in nodes if n.type == "TEX_IMAGE" and n.image)))
+    return tuple(found)
+
+
 def _estimate_text(obj, settings):
     """Lines describing the run's size, cached on what changes them."""
     try:
         core = settings.to_settings()
     except ValueError as err:
         return [str(err)]
-    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons))
+    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons), _images(obj))
     if key not in _estimate_cache:
         try:
             h, n, nbytes, seconds = operators.estimate(obj, core)
