@@ -426,6 +426,8 @@ def settings_from_dict(data, *, source="preset"):
     every bad field as the file spells it (``[noise] seed``), what it must be
     and what it is.
     """
+    if not data:
+        raise ValueError(f"{source}: the preset is empty: it holds no settings")
     values, labels, problems = _fields(data)
     if "palette" in values:
         values["palette"], values["palette_weights"], bad = _palette(labels["palette"], values["palette"])

@@ -103,6 +103,7 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\n[strokes]\nwidth = 0.5\n[noise]\npalette = ["#102040"]',
      "[strokes] width must lie in [0.001, 0.1], got 0.5"),
     ('mode = = "ced"', "not valid TOML: Invalid value (at line 1, column 8)"),
+    ('# nothing but a comment\n', "the preset is empty: it holds no settings"),
 ])
 def test_bad_presets_are_reported(tmp_path, text, message):
     path = tmp_path / "bad.toml"
