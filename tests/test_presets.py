@@ -68,7 +68,7 @@ def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_pa
 
 def test_settings_scale_with_the_object():
     s = StylizeSettings(mode="eed", T=1e-4, spacing=0.01, params={"sigma": 2e-4})
-    h, kw = s.scaled(20.0)  # an object 20 units long: ten times the paper's size
+    h, kw = s.scaled(20.0)  # an object 20 units across: ten times the paper's size
     assert h == pytest.approx(0.1) and kw["T"] == pytest.approx(1e-2) and kw["sigma"] == pytest.approx(2e-2)
 
 
