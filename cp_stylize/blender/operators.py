@@ -277,13 +277,11 @@ class CP_STYLIZE_OT_preset_load(bpy.types.Operator):
     def execute(self, context):
         from ..presets import load_preset
 
-        try:
+        def work():   # on any error the panel is as it was: a preset is checked whole, then set whole
             settings = load_preset(self.name, user_folders())
             context.scene.cp_stylize.from_settings(settings.replace(name=settings.name or self.name), key=self.name)
-        except ValueError as err:   # the panel is as it was: a preset is checked whole, then set whole
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
@@ -302,15 +300,14 @@ class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
         from ..presets import save_user_preset
 
         panel = context.scene.cp_stylize
-        try:
+
+        def work():
             settings = panel.to_settings().replace(description="user preset")
             key, path, replaced = save_user_preset(settings, user_preset_dir(create=True), self.name)
-        except ValueError as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        panel.preset_name, panel.preset_key = self.name.strip(), key
-        self.report({"INFO"}, f"{'replaced' if replaced else 'saved'} the preset {self.name.strip()!r} in {path}")
-        return {"FINISHED"}
+            panel.preset_name, panel.preset_key = self.name.strip(), key
+            self.report({"INFO"}, f"{'replaced' if replaced else 'saved'} the preset {self.name.strip()!r} in {path}")
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_preset_remove(bpy.types.Operator):
@@ -325,13 +322,11 @@ class CP_STYLIZE_OT_preset_remove(bpy.types.Operator):
     def execute(self, context):
         from ..presets import remove_user_preset
 
-        try:
+        def work():
             path = remove_user_preset(self.name, user_preset_dir())
-        except ValueError as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"removed the preset {self.name!r} ({path})")
-        return {"FINISHED"}
+            self.report({"INFO"}, f"removed the preset {self.name!r} ({path})")
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_palette_add(bpy.types.Operator):
