@@ -103,7 +103,8 @@ def test_a_mesh_without_surface_is_reported(vertices):
     settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
     with pytest.raises(ValueError) as info:
         stylize(np.asarray(vertices, float), np.array([[0, 1, 2]]), ColourInput.constant(1, (1, 1, 1)), settings)
-    assert str(info.value) == "the mesh has no surface: the corners of each of its 1 face(s) lie on a line or at one point"
+    assert str(info.value) == ("the mesh has no surface: the corners of each of its 1 face(s) lie on a line or at "
+                               "one point")
 
 
 def _box():

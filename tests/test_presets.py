@@ -215,7 +215,8 @@ def test_every_field_round_trips_through_a_preset_file(tmp_path):
     settings = StylizeSettings(
         mode="ced", T=3.3e-4, spacing=0.011, params={"sigma": 2e-4, "rho": 1e-3, "alpha": 0.01, "b_rel": 1e-5},
         noise_fraction=0.0, noise_mapping="random", noise_spread=0.3, detail=0.4, strokes=0.6, stroke_length=0.2,
-        stroke_width=0.02, palette=((0.1, 0.1, 0.5), (0.3, 0.302, 0.9), (1.0, 0.8, 0.0)), palette_weights=(2.0, 0.5, 0.0),
+        stroke_width=0.02, palette=((0.1, 0.1, 0.5), (0.3, 0.302, 0.9), (1.0, 0.8, 0.0)),
+        palette_weights=(2.0, 0.5, 0.0),
         seed=2**31 - 1, direction="axis", axis=(1.0, -0.5, 0.25), attribute="comb", image_size=2048, margin=7,
         name='Mine "quoted" \\ Звёзды', description="strokes without noise")
     back = load_preset(save_preset(settings, tmp_path / "mine.toml"))
@@ -286,7 +287,8 @@ def test_names_that_cannot_be_saved_are_refused(tmp_path, name, message):
 
 @pytest.mark.parametrize("name, key", [
     ("Starry Night Paper", "starry_night_paper_2"),        # a shipped key, another name
-    ("Звёздная ночь", "звёздная_ночь"), ("日本", "日本"), ("CON", "con_"), ("../../evil", "evil"), ("a/b", "a_b"),
+    ("Звёздная ночь", "звёздная_ночь"), ("日本", "日本"), ("CON", "con_"),
+    ("../../evil", "evil"), ("a/b", "a_b"),
     ("y" * 64, "y" * 64), ("日" * 64, "日" * 40),
 ])
 def test_keys_are_file_names_on_every_system(tmp_path, name, key):

@@ -91,8 +91,10 @@ BAD_PRESETS = [
     ('name = "Big Seed"\nmode = "eed"\nT = 3e-4\nspacing = 0.012\ndetail = 0.25\n'
      '[noise]\nfraction = 0.1\nseed = 99999999999\npalette = ["#ff0000"]\n',
      "[noise] seed must be a whole number in [0, 2147483647], got 99999999999"),
-    ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [[1, 2]]\n', f"[noise] palette entry 1 must be {ENTRY}, got [1, 2]"),
-    ('mode = "ced"\nnoise = 5\n', "noise must be a table ([noise] with fraction, mapping, spread, seed, palette), got 5"),
+    ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [[1, 2]]\n',
+     f"[noise] palette entry 1 must be {ENTRY}, got [1, 2]"),
+    ('mode = "ced"\nnoise = 5\n',
+     "noise must be a table ([noise] with fraction, mapping, spread, seed, palette), got 5"),
     ('mode = "ced"\nstrokes = [1]\n', "strokes must be a table ([strokes] with strength, length, width), got [1]"),
     ('mode = "ced"\ndirection = "axis"\naxis = 5\n', "axis must be three finite numbers, not all zero, got 5"),
     ('name = 5\nmode = "eed"\n', "name must be text, got 5"),
@@ -356,7 +358,8 @@ def test_a_mesh_of_faces_without_area_is_refused_by_name(addon, flattened):
     before = snapshot()
     why = ", as the object's scale flattens it" if flattened else ""
     assert error(bpy.ops.object.cp_stylize) == (
-        f"the mesh of 'Strokes' has no surface to stylize: the corners of every face lie on a line or at one point{why}")
+        "the mesh of 'Strokes' has no surface to stylize: the corners of every face lie on a line or at one "
+        f"point{why}")
     assert_unchanged(before, snapshot())
 
 
