@@ -243,8 +243,10 @@ def wire(material, image, uv_name, changes):
     current = _upstream(socket)
     ours = current is not None and current.node.name == NODE and current.node.type == "TEX_IMAGE"
     shader = socket.node
+    previous = None
     if ours:
         tex = current.node
+        previous = tex.image
     else:
         tex = changes.new_node(tree, "ShaderNodeTexImage")
         tex.name = tex.label = NODE
@@ -265,4 +267,4 @@ def wire(material, image, uv_name, changes):
             changes.link(tree, uv.outputs["UV"], tex.inputs["Vector"])
     elif uv_linked:
         changes.unlink(tree, tex.inputs["Vector"].links[0])
-    return tex
+    return previous

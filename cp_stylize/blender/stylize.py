@@ -16,10 +16,12 @@ A run has three steps, and only the last one changes the file:
 
 What a run writes: by default a copy of each material (``<material>_stylized``,
 which remembers its original, so a second run starts again from the original
-colours and updates the same copy); with ``target="APPLY"`` the object's own
-materials.  Where a mesh shares its data with other objects, the copy is
-assigned to this object only.  A saved image never overwrites a file: it takes
-the first free name (``wood.png``, ``wood.001.png``, ...).
+colours and updates the same copy, as long as no other object shows that copy);
+with ``target="APPLY"`` the object's own materials.  Where a mesh shares its
+data with other objects, the copy is assigned to this object only.  A saved
+image never overwrites a file: it takes the first free name (``wood.png``,
+``wood.001.png``, ...).  The images a result replaces are removed only if
+nothing uses them and nobody edited them (:mod:`.results`).
 
 What a run keeps: the parts it built before its filter (the band and its
 operators, the atlas, the surface points of the texels; see
@@ -40,14 +42,12 @@ import threading
 import bpy
 import numpy as np
 
-from . import bake, images, materials, meshdata
+from . import bake, images, materials, meshdata, results
 from .changes import Changes
 from .errors import Cancelled, StylizeError
 
 #: Name of the UV map added to meshes that have no usable UVs of their own.
 ATLAS_UV_NAME = "cp_stylize_atlas"
-#: Custom property marking an image a run made (its value: the object's name).
-MADE_BY = "cp_stylize"
 
 OBJECT_TYPES = {
     "EMPTY": "an empty", "CAMERA": "a camera", "LIGHT": "a light", "LIGHT_PROBE": "a light probe",
@@ -99,6 +99,7 @@ class Applied:
     image: str                        # the new image's name
     path: str | None                  # the file it was saved as
     materials: tuple                  # names of the materials that show it
+    kept: tuple = ()                  # names of earlier results it replaced that were edited, and are kept
 
 
 # -- what runs keep for the next ---------------------------------------------------------------
@@ -463,16 +464,32 @@ def _store(image, output, name, changes):
     return path
 
 
+def _shown_by_others(material, obj):
+    """Whether an object other than ``obj`` shows ``material`` in one of its slots."""
+    return any(other != obj and any(slot.material == material for slot in other.material_slots)
+               for other in bpy.data.objects)
+
+
+def _own_copy(material, obj):
+    """Whether ``material`` is a copy an earlier run made that only ``obj`` shows, so this run may rewire it."""
+    return (material.get(materials.ORIGINAL) is not None and material.library is None
+            and not _shown_by_others(material, obj))
+
+
 def _material_for(obj, index, output, changes, copies):
     """The material slot ``index``'s result goes into, creating or copying one as needed.
 
-    ``copies`` maps each original material to its copy made in this run, so
-    that slots sharing a material share its copy.
+    ``copies`` maps each material to its copy made in this run, so that slots
+    sharing a material share its copy.  A copy an earlier run made is reused
+    only while no other object shows it (a duplicate of the object, or an
+    object the material was linked to, keeps its look): otherwise it is
+    copied in turn, with the user's changes to it, and the new copy points to
+    the same original.
     """
     slot = obj.material_slots[index] if index < len(obj.material_slots) else None
     material = slot.material if slot is not None else None
-    if material is not None and (output.target == "APPLY" or material.get(materials.ORIGINAL) is not None):
-        return material     # the user's own, or the copy an earlier run made
+    if material is not None and (output.target == "APPLY" or _own_copy(material, obj)):
+        return material     # the user's own, or this object's copy from an earlier run
     if material is None:
         new = changes.new_id(bpy.data.materials, bpy.data.materials.new(f"{obj.name}_stylized"))
         if new.node_tree is None:
@@ -480,9 +497,10 @@ def _material_for(obj, index, output, changes, copies):
     elif material in copies:
         new = copies[material]
     else:
+        original = material.get(materials.ORIGINAL) or material
         new = copies[material] = changes.new_id(bpy.data.materials, material.copy())
-        new.name = f"{material.name}_stylized"
-        changes.set_item(new, materials.ORIGINAL, material)
+        new.name = f"{original.name}_stylized"
+        changes.set_item(new, materials.ORIGINAL, original)
     mesh = obj.data
     if slot is None:   # no slots: add one to the mesh, empty at mesh level
         mesh.materials.append(None)
@@ -498,31 +516,27 @@ def apply(job):
     """Write the result into the file as one transaction; returns :class:`Applied`.
 
     Raises StylizeError (with nothing changed) if the object was deleted,
-    entered Edit Mode or changed during the run, or if saving fails.
+    entered Edit Mode or changed during the run, or if saving fails.  The
+    images the result replaces are removed or kept as :mod:`.results` says.
     """
     obj = _current_object(job)
     result, output = job.result, job.output
     name = output.image_name or f"{obj.name}_stylized"
+    replaced = results.Replaced()
     with Changes() as changes:
         uv_name = job.uv_name
         if result.atlas.generated:
             uv_name = _write_atlas_uvs(obj.data, job.mesh.loops, result.atlas.uvs, changes)
         image = changes.new_id(bpy.data.images, images.array_to_image(name, result.image))
-        image[MADE_BY] = obj.name
         path = _store(image, output, name, changes)
-        replaced, wired, copies = [], [], {}
+        results.mark(image, obj)
+        wired, copies = [], {}
         for index in job.slots:
             material = _material_for(obj, index, output, changes, copies)
-            if material.name in wired:
+            if material in wired:
                 continue
-            tree_node = material.node_tree.nodes.get(materials.NODE) if material.node_tree else None
-            replaced.append(getattr(tree_node, "image", None))
-            materials.wire(material, image, uv_name, changes)
-            wired.append(material.name)
-    for old in replaced:   # the previous run's image, if nothing else uses it and nobody painted on it
-        if old is not None and old != image and old.get(MADE_BY) and old.users == 0 and not old.is_dirty:
-            old_name = old.name
-            bpy.data.images.remove(old)
-            if old_name == name:
-                image.name = old_name
-    return Applied(image=image.name, path=path, materials=tuple(wired))
+            replaced.add(materials.wire(material, image, uv_name, changes))
+            wired.append(material)
+        unused, kept = replaced.retire([image], changes)
+    results.remove(unused, [(image, name)])
+    return Applied(image=image.name, path=path, materials=tuple(m.name for m in wired), kept=tuple(kept))

@@ -9,6 +9,7 @@ whole file (``blender_state``) and the exact message the user sees.
 """
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -633,6 +634,184 @@ def test_a_second_apply_reads_the_original_colours(addon):
     assert sorted(n.name for n in material.node_tree.nodes if n.name.startswith("cp_stylize")) == [
         "cp_stylize", "cp_stylize UV"]
     np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
+
+
+# -- 14. second runs, duplicates and edited results --------------------------------------------------
+
+
+def run_report(capfd):
+    """The report of a finished run (printed in background mode): ``(kind, message)``."""
+    capfd.readouterr()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    line = [l for l in capfd.readouterr().out.splitlines() if l.startswith(("Info: styl", "Warning: styl"))][-1]
+    kind, _, message = line.partition(": ")
+    return kind, message
+
+
+def report_pattern(obj, image, tail=""):
+    """A regular expression of a run's report, the run's time and band size left open."""
+    import re
+
+    return (rf"stylized {obj!r} into {image!r} in [0-9.]+ s \([0-9,]+ band points, grid spacing 0\.04"
+            rf"(, the last run's band reused)?\){re.escape(tail)}")
+
+
+def changed_paths(before, after):
+    """The snapshot paths that differ (``images.Ball_stylized``, ``materials.Painted_stylized.nodes``, ...)."""
+    from blender_state import differences
+
+    return sorted({d.split(": ")[0] for d in differences(before, after)})
+
+
+def two_material_sphere():
+    """A sphere whose lower half wears 'Lower' (a red-blue image) and upper half 'Upper' (green-red)."""
+    obj = sphere(material=image_material("Lower", halves("lower")))
+    obj.data.materials.append(image_material("Upper", halves("upper", GREEN, RED)))
+    centres = np.array([p.center.z for p in obj.data.polygons])
+    obj.data.polygons.foreach_set("material_index", (centres > 0).astype(np.int32))
+    return obj
+
+
+@pytest.mark.parametrize("target", ["NEW_MATERIAL", "APPLY"])
+def test_a_second_run_on_two_materials_replaces_their_image_once(addon, capfd, target):
+    obj = two_material_sphere()
+    addon.target = target
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = pixels(stylized_image(obj)).copy()
+    addon.time = 0.004   # a different look
+    before = snapshot()
+    kind, message = run_report(capfd)
+    after = snapshot()
+    assert kind == "Info" and re.fullmatch(report_pattern("Ball", "Ball_stylized"), message), message
+    # the one image both materials showed is replaced by the new one, under its name; nothing else changes
+    assert changed_paths(before, after) == ["images.Ball_stylized"]
+    assert stylized_image(obj, 0) == stylized_image(obj, 1) == bpy.data.images["Ball_stylized"]
+    assert np.abs(pixels(stylized_image(obj)) - first).max() > 0.05
+
+
+def _duplicate(obj, how):
+    """A second object 'Other' that shows ``obj``'s first material: Shift+D, Link Materials or an object slot."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    if how == "Shift+D":
+        bpy.ops.object.duplicate(linked=False)     # a copy of the mesh, the same materials
+        other = bpy.context.active_object
+    else:
+        other = sphere("Other", material=image_material("Own", halves("own", GREEN, BLUE)), location=(3, 0, 0))
+        if how == "Link Materials":
+            for o in bpy.context.view_layer.objects:
+                o.select_set(o in (obj, other))
+            bpy.context.view_layer.objects.active = obj
+            bpy.ops.object.make_links_data(type="MATERIAL")
+        else:
+            other.material_slots[0].link = "OBJECT"
+            other.material_slots[0].material = obj.material_slots[0].material
+    other.name = "Other"
+    other.location.x = 3.0
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == other)
+    bpy.context.view_layer.objects.active = other
+    return other
+
+
+@pytest.mark.parametrize("how", ["Shift+D", "Link Materials", "object slot"])
+def test_another_object_showing_the_result_keeps_its_look(addon, how):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copy = obj.material_slots[0].material
+    copy.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.2   # the user's change
+    other = _duplicate(obj, how)
+    assert other.material_slots[0].material == copy
+    other.data.transform(np.diag([1.0, 1.0, 0.5, 1.0]))   # a shape of its own
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    # the first object, its copy and its image are as they were
+    assert after["objects"]["Ball"] == before["objects"]["Ball"]
+    assert after["materials"]["Painted_stylized"] == before["materials"]["Painted_stylized"]
+    assert after["images"]["Ball_stylized"] == before["images"]["Ball_stylized"]
+    # the other object wears a copy of its own, with the user's change, pointing to the same original
+    own = other.material_slots[0].material
+    assert own.name == "Painted_stylized.001" and own["cp_stylize_original"] == material
+    assert own.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value == pytest.approx(0.2)
+    assert stylized_image(other).name == "Other_stylized"
+    assert set(after["materials"]) - set(before["materials"]) == {"Painted_stylized.001"}
+    # and a run on the first object again still updates its own copy
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert obj.material_slots[0].material == copy and stylized_image(obj).name == "Ball_stylized"
+    assert after["materials"] == before["materials"] and after["objects"]["Other"] == before["objects"]["Other"]
+
+
+def _edit(image, how, tmp_path):
+    """Edit a result image as a user would; returns it (reloaded after a save and reopen)."""
+    px = pixels(image).copy()
+    rgba = np.ones(px.shape[:2] + (4,), np.float32)
+    rgba[..., :3] = px
+    rgba[100:200, 100:200, :3] = (1.0, 1.0, 0.0)     # a yellow square
+    if how == "resized":
+        image.scale(256, 256)
+        return image
+    image.pixels.foreach_set(rgba.ravel())
+    if how == "painted":
+        assert image.is_dirty
+        return image
+    image.pack()                                      # Image > Pack: no longer dirty
+    assert not image.is_dirty
+    if how == "painted, packed, saved and reopened":
+        name = image.name
+        save_blend(tmp_path)
+        bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "scene.blend"))
+        image = bpy.data.images[name]
+        bpy.context.view_layer.objects.active = bpy.data.objects["Ball"]
+    return image
+
+
+@pytest.mark.parametrize("how", ["painted", "painted and packed", "painted, packed, saved and reopened", "resized"])
+def test_an_edited_result_is_kept_by_the_next_run(addon, capfd, tmp_path, how):
+    from blender_state import pixel_hash
+
+    obj = sphere(material=image_material("Painted", halves("source")))
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    edited = _edit(stylized_image(obj), how, tmp_path)
+    obj = bpy.data.objects["Ball"]
+    edited_hash = pixel_hash(edited)
+    before = snapshot()
+    kind, message = run_report(capfd)
+    after = snapshot()
+    note = ("; the earlier result 'Ball_stylized' was edited after its run, so it is kept, with a fake user so that "
+            "saving keeps it")
+    assert kind == "Warning" and re.fullmatch(report_pattern("Ball", "Ball_stylized.001", note), message), message
+    assert changed_paths(before, after) == ["counts.images", "images.Ball_stylized", "images.Ball_stylized.001",
+                                            "materials.Painted_stylized.nodes"]
+    kept = bpy.data.images["Ball_stylized"]
+    assert pixel_hash(kept) == edited_hash and kept.use_fake_user
+    assert stylized_image(obj).name == "Ball_stylized.001"
+    # saving keeps it (with its paint packed, as File > Save offers for modified images)
+    if kept.is_dirty:
+        kept.pack()
+    save_blend(tmp_path, "after.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "after.blend"))
+    assert pixel_hash(bpy.data.images["Ball_stylized"]) == edited_hash
+
+
+def test_an_unedited_result_is_replaced_after_a_save_and_reopen(addon, capfd, tmp_path):
+    obj = sphere(material=image_material("Painted", halves("source")))
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    save_blend(tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "scene.blend"))
+    bpy.context.view_layer.objects.active = obj = bpy.data.objects["Ball"]
+    before = snapshot()
+    kind, message = run_report(capfd)
+    assert kind == "Info" and re.fullmatch(report_pattern("Ball", "Ball_stylized"), message), message
+    assert changed_paths(before, snapshot()) == []   # the same settings: the same image, under the same name
+    assert [i.name for i in bpy.data.images] == ["Ball_stylized", "source"]
 
 
 # -- 12. messages that name the real cause ---------------------------------------------------------
