@@ -532,6 +532,85 @@ def test_images_are_read_as_cycles_renders_them(addon, case):
     assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
 
 
+def cycles_emission(obj, size=256):
+    """The colour Cycles renders on ``obj`` (an Emit bake), sRGB-encoded, at its faces' centres."""
+    from cp_stylize.texture import linear_to_srgb
+
+    material = obj.material_slots[0].material
+    target = bpy.data.images.new("cycles base colour", size, size, float_buffer=True)
+    node = material.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = target
+    material.node_tree.nodes.active = node
+    scene = bpy.context.scene
+    scene.render.engine, scene.cycles.samples, scene.cycles.device = "CYCLES", 1, "CPU"
+    render_uv = next(l.name for l in obj.data.uv_layers if l.active_render)
+    bpy.ops.object.bake(type="EMIT", margin=4, use_clear=True, uv_layer=render_uv)
+    baked = pixels(target)
+    texel = np.clip((job_centres_uv(obj) * size).astype(int), 0, size - 1)
+    return linear_to_srgb(np.clip(baked[texel[:, 1], texel[:, 0]], 0.0, None))
+
+
+def _muted(material, case):
+    """Mute a node (or link) of ``material``, whose Image Texture feeds an Emission, as ``case`` says."""
+    tree = material.node_tree
+    tex = texture_node(material)
+    base = next(n for n in tree.nodes if n.type == "EMISSION").inputs["Color"]
+    if case == "image":
+        tex.mute = True
+    elif case == "link":
+        base.links[0].is_muted = True
+    elif case.startswith("mix"):
+        mix = tree.nodes.new("ShaderNodeMix")
+        mix.data_type = "RGBA"
+        mix.inputs["B"].default_value = (*GREEN, 1.0)
+        tree.links.new(tex.outputs["Color"], mix.inputs["A" if case == "mix, image on A" else "B"])
+        tree.links.new(mix.outputs["Result"], base)
+        mix.mute = True   # passes A on, or nothing
+    elif case == "gamma":
+        gamma = tree.nodes.new("ShaderNodeGamma")
+        gamma.inputs["Gamma"].default_value = 2.2
+        tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
+        tree.links.new(gamma.outputs["Color"], base)
+        gamma.mute = True
+    else:   # a UV Map node naming the second map, through a Mapping node
+        uv = tree.nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "Second"
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        mapping.inputs["Scale"].default_value = (2.0, 2.0, 1.0)
+        tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+        tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+        (mapping if case == "mapping" else uv).mute = True
+
+
+@pytest.mark.parametrize("case", ["image", "link", "mix, image on A", "mix, image on B", "gamma", "mapping",
+                                  "UV map node"])
+def test_muted_nodes_are_read_as_cycles_renders_them(addon, case):
+    from cp_stylize.blender import stylize
+
+    material = image_material("Muted", smooth_image("smooth"), shader="ShaderNodeEmission")
+    _muted(material, case)
+    obj = sphere(material=material, segments=48, rings=24)
+    uv = np.empty(2 * len(obj.data.loops))
+    obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    obj.data.uv_layers.new(name="Second").data.foreach_set("uv", 0.25 + 0.5 * uv)
+    before = snapshot()
+    read = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    assert_unchanged(before, snapshot())
+    error = np.abs(read - cycles_emission(obj)).max(axis=1)
+    print(f"\n{case}: median {np.median(error):.4f}, 98th percentile {np.percentile(error, 98):.4f}")
+    assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
+
+
+def test_a_muted_shader_is_named(addon):
+    material = image_material("Painted", halves("source"))
+    next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED").mute = True
+    sphere(material=material)
+    before = snapshot()
+    assert run_error() == ("material 'Painted': its surface comes from the muted node 'Principled BSDF' (Principled "
+                           "BSDF), so it renders no surface: unmute it (M in the Shader Editor)")
+    assert_unchanged(before, snapshot())
+
+
 # -- 8-11. scope -----------------------------------------------------------------------------------
 
 
