@@ -65,6 +65,7 @@ class ImageSource:
     uv_name: str | None      # None: the render UV map
     transform: tuple | None  # (A (2, 2), b (2,)) applied to the UVs
     wrap: str
+    mapping: str | None = None   # the name of the Mapping node that applies it
 
 
 @dataclasses.dataclass(frozen=True)
@@ -209,9 +210,10 @@ def _image_source(output, material, uv_names, owner):
     if image.source in ("FILE", "GENERATED") and not (image.is_float or image.colorspace_settings.name
                                                       in SRGB_SPACES + LINEAR_SPACES):
         return None
-    transform, uv_name = None, None
+    transform, uv_name, mapping = None, None, None
     vector = _upstream(node.inputs["Vector"])
     if vector is not None and vector.node.type == "MAPPING":
+        mapping = vector.node.name
         transform = _mapping_transform(vector.node, material)
         vector = _upstream(vector.node.inputs["Vector"])
         if transform is None or vector is None:   # an unlinked Mapping input is a constant, not the UVs
@@ -227,7 +229,7 @@ def _image_source(output, material, uv_names, owner):
                   and not getattr(vector.node, "from_instancer", False)):
             return None
     return ImageSource(node=node, image=image, uv_name=uv_name, transform=transform,
-                       wrap=WRAPS.get(node.extension, "repeat"))
+                       wrap=WRAPS.get(node.extension, "repeat"), mapping=mapping)
 
 
 def colour_source(material, uv_names, owner):

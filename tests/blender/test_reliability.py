@@ -169,11 +169,68 @@ def test_a_procedural_colour_on_a_mesh_without_uvs_is_baked_through_a_new_atlas(
     assert grey.max() - grey.min() > 0.3  # both checker tones
 
 
-def test_a_hidden_object_with_a_procedural_colour_is_refused(addon):
+def _in_collection(obj, **flags):
+    """Move ``obj`` into a new collection 'Props'; set ``flags`` on it (``layer_`` ones on its layer collection)."""
+    collection = bpy.data.collections.new("Props")
+    bpy.context.scene.collection.children.link(collection)
+    collection.objects.link(obj)
+    bpy.context.scene.collection.objects.unlink(obj)
+    layer = bpy.context.view_layer.layer_collection.children["Props"]
+    for flag, value in flags.items():
+        setattr(layer if flag.startswith("layer_") else collection, flag.removeprefix("layer_"), value)
+
+
+BAKE_VISIBILITY = {
+    "hidden": (lambda o: o.hide_set(True),
+               "'Ball' is hidden: show it (Alt+H) so that its procedural colours can be baked"),
+    "disabled in viewports": (lambda o: setattr(o, "hide_viewport", True),
+                              "'Ball' is disabled in viewports: enable it (the monitor icon in the Outliner, or Object "
+                              "properties > Visibility > Show in Viewports) so that its procedural colours can be "
+                              "baked"),
+    "disabled in renders": (lambda o: setattr(o, "hide_render", True),
+                            "'Ball' is disabled in renders: enable it (the camera icon in the Outliner, or Object "
+                            "properties > Visibility > Show in Renders) so that its procedural colours can be baked"),
+    "not selectable": (lambda o: setattr(o, "hide_select", True),
+                       "'Ball' cannot be selected, and Cycles bakes only selected objects: make it selectable (the "
+                       "arrow icon in the Outliner, or Object properties > Visibility > Selectable) so that its "
+                       "procedural colours can be baked"),
+    "a holdout": (lambda o: setattr(o, "is_holdout", True),
+                  "'Ball' is a holdout, which Cycles bakes black: turn Holdout off (Object properties > Visibility > "
+                  "Holdout) so that its procedural colours can be baked"),
+    "in a hidden collection": (lambda o: _in_collection(o, layer_hide_viewport=True),
+                               "'Ball' cannot be baked: its collection 'Props' is hidden: show it (the eye icon next "
+                               "to it in the Outliner) so that its procedural colours can be baked"),
+    "in a collection disabled in viewports": (lambda o: _in_collection(o, hide_viewport=True),
+                                              "'Ball' cannot be baked: its collection 'Props' is disabled in "
+                                              "viewports: enable it (the monitor icon next to it in the Outliner) so "
+                                              "that its procedural colours can be baked"),
+    "in a collection disabled in renders": (lambda o: _in_collection(o, hide_render=True),
+                                            "'Ball' cannot be baked: its collection 'Props' is disabled in renders: "
+                                            "enable it (the camera icon next to it in the Outliner) so that its "
+                                            "procedural colours can be baked"),
+    "in an unselectable collection": (lambda o: _in_collection(o, hide_select=True),
+                                      "'Ball' cannot be baked: its collection 'Props' cannot be selected: make it "
+                                      "selectable (the arrow icon next to it in the Outliner) so that its procedural "
+                                      "colours can be baked"),
+    "in a holdout collection": (lambda o: _in_collection(o, layer_holdout=True),
+                                "'Ball' cannot be baked: its collection 'Props' is a holdout, which Cycles bakes "
+                                "black: turn its Holdout off in the Outliner so that its procedural colours can be "
+                                "baked"),
+    "in an excluded collection": (lambda o: _in_collection(o, layer_exclude=True),
+                                  "'Ball' is not in the view layer 'ViewLayer': its collection 'Props' is excluded "
+                                  "from the view layer: include it (the checkbox next to it in the Outliner) so that "
+                                  "its procedural colours can be baked"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAKE_VISIBILITY))
+def test_an_object_cycles_cannot_bake_is_refused_with_what_to_change(addon, case):
     obj = sphere(material=procedural_material())
-    obj.hide_set(True)
+    setup, message = BAKE_VISIBILITY[case]
+    setup(obj)
     before = snapshot()
-    assert run_error() == "'Ball' is hidden: show it (Alt+H) so that its procedural colours can be baked"
+    with bpy.context.temp_override(active_object=obj, object=obj):   # the Outliner can make any object active
+        assert run_error() == message
     assert_unchanged(before, snapshot())
 
 
@@ -200,12 +257,49 @@ def _refused_before_the_band_is_built(monkeypatch):
     return message
 
 
-def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_before_the_run(addon, monkeypatch):
+def flip_faces_modifier(obj):
+    """A Geometry Nodes modifier that flips every face: the same counts, the corners in another order."""
+    tree = bpy.data.node_groups.new("Flip", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    flip = tree.nodes.new("GeometryNodeFlipFaces")
+    tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], flip.inputs[0])
+    tree.links.new(flip.outputs[0], tree.nodes.new("NodeGroupOutput").inputs[0])
+    obj.modifiers.new("Flip", "NODES").node_group = tree
+
+
+@pytest.mark.parametrize("modifier", ["Subdivision", "Flip Faces"])
+def test_a_mesh_without_uvs_whose_modifiers_change_its_corners_is_refused_before_the_run(addon, monkeypatch,
+                                                                                       modifier):
     obj = _bare_sphere_with_material()
-    obj.modifiers.new("Subdivision", "SUBSURF")
+    if modifier == "Subdivision":
+        obj.modifiers.new("Subdivision", "SUBSURF")
+    else:
+        flip_faces_modifier(obj)
     assert _refused_before_the_band_is_built(monkeypatch) == (
-        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
-        "fix the UV map, or apply the modifiers that change its topology (or make its mesh local) first")
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: its modifiers change its "
+        "faces or the order of their corners: apply them first, or give the mesh a usable UV map")
+
+
+@pytest.mark.parametrize("modifier", ["UV Warp", "Geometry Nodes"])
+def test_modifiers_that_change_a_new_uv_map_are_refused(addon, modifier):
+    obj = _bare_sphere_with_material()
+    if modifier == "UV Warp":   # it warps the active UV map: the new one, on a mesh without UV maps
+        obj.modifiers.new("Warp", "UV_WARP").scale = (2.0, 1.0)
+    else:                       # a setup that writes every UV map it finds
+        tree = bpy.data.node_groups.new("Scale UVs", "GeometryNodeTree")
+        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        store = tree.nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type, store.domain = "FLOAT2", "CORNER"
+        store.inputs["Name"].default_value = "cp_stylize_atlas"
+        tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], store.inputs["Geometry"])
+        tree.links.new(store.outputs["Geometry"], tree.nodes.new("NodeGroupOutput").inputs[0])
+        obj.modifiers.new("Scale UVs", "NODES").node_group = tree
+    before = snapshot()
+    assert run_error() == ("the modifiers of 'Ball' change the UVs of a new UV map, which the result needs as they "
+                           "are; nothing was changed: apply the modifiers first, or give the mesh a usable UV map")
+    assert_unchanged(before, snapshot())
 
 
 def test_without_xatlas_a_mesh_without_uvs_gets_an_atlas_of_projected_charts(addon, monkeypatch):
@@ -891,6 +985,161 @@ def test_an_unedited_result_is_replaced_after_a_save_and_reopen(addon, capfd, tm
     assert kind == "Info" and re.fullmatch(report_pattern("Ball", "Ball_stylized"), message), message
     assert changed_paths(before, snapshot()) == []   # the same settings: the same image, under the same name
     assert [i.name for i in bpy.data.images] == ["Ball_stylized", "source"]
+
+
+# -- 15. shared meshes, UV maps, and what the bake sees ------------------------------------------------
+
+
+def _twin(obj, how):
+    """Another object 'Twin' that uses ``obj``'s mesh, with an image material of its own at object level."""
+    if how == "linked duplicate":
+        twin = obj.copy()
+        bpy.context.collection.objects.link(twin)
+    else:   # Link Object Data (Ctrl+L) onto an object of another scene
+        other = bpy.data.scenes.new("Other scene")
+        bpy.ops.mesh.primitive_cube_add()
+        twin = bpy.context.active_object
+        bpy.context.collection.objects.unlink(twin)
+        other.collection.objects.link(twin)
+        twin.data = obj.data
+    twin.name = "Twin"
+    twin.location.x = 3.0
+    twin.material_slots[0].link = "OBJECT"
+    twin.material_slots[0].material = image_material("TwinMat", halves("twin"))
+    bpy.context.view_layer.objects.active = obj
+    return twin
+
+
+@pytest.mark.parametrize("how", ["linked duplicate", "object data linked in another scene"])
+def test_a_mesh_without_uvs_shared_with_another_object_is_refused_before_the_run(addon, monkeypatch, how):
+    obj = _bare_sphere_with_material()
+    _twin(obj, how)
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: its mesh 'Sphere' is "
+        "shared with 'Twin', and a new UV map would become the render UV map there too, changing how it renders: "
+        "give 'Ball' its own mesh first (Object > Relations > Make Single User > Object & Data), or add a UV map to "
+        "the mesh")
+
+
+def overlapping_uvs(obj, name="UVMap"):
+    """Fold the right half of ``obj``'s UV map ``name`` over its left half (unusable for a result)."""
+    mesh = obj.data
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    mesh.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    polygon = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    centre = np.bincount(polygon, uv[:, 0]) / np.bincount(polygon)
+    right = centre[polygon] > 0.5
+    uv[right, 0] = 1.0 - uv[right, 0]
+    mesh.uv_layers[name].data.foreach_set("uv", uv.ravel())
+
+
+def test_a_shared_mesh_with_unusable_uvs_gets_a_map_its_twin_does_not_render(addon):
+    obj = sphere(material=node_material("Flat"))
+    overlapping_uvs(obj)
+    twin = _twin(obj, "linked duplicate")
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["UVMap", "cp_stylize_atlas"]
+    assert after["meshes"]["Sphere"]["uv_render"] == before["meshes"]["Sphere"]["uv_render"] == "UVMap"
+    assert after["objects"]["Twin"] == before["objects"]["Twin"]
+    assert after["materials"]["TwinMat"] == before["materials"]["TwinMat"]
+    # a second run, on the twin, reads through the map the first one wrote, and rewrites nothing
+    uv = np.empty(2 * len(obj.data.loops), np.float32)
+    obj.data.uv_layers["cp_stylize_atlas"].data.foreach_get("uv", uv)
+    bpy.context.view_layer.objects.active = twin
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    again = np.empty_like(uv)
+    obj.data.uv_layers["cp_stylize_atlas"].data.foreach_get("uv", again)
+    np.testing.assert_array_equal(again, uv)
+    assert twin.material_slots[0].material.node_tree.nodes["cp_stylize UV"].uv_map == "cp_stylize_atlas"
+
+
+def _procedural_on_uvs(material):
+    """Feed ``material``'s checker from the UV output of a Texture Coordinate node."""
+    tree = material.node_tree
+    checker = next(n for n in tree.nodes if n.type == "TEX_CHECKER")
+    checker.inputs["Color1"].default_value = (*RED, 1.0)
+    checker.inputs["Color2"].default_value = (*BLUE, 1.0)
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], checker.inputs["Vector"])
+    return material
+
+
+def test_a_procedural_on_uvs_of_a_mesh_without_uvs_is_baked_as_the_renderer_shows_it(addon):
+    from cp_stylize.texture import linear_to_srgb
+
+    obj = sphere(material=_procedural_on_uvs(procedural_material()))
+    remove_uvs(obj)
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["cp_stylize_atlas"]   # the bake's temporary maps are gone
+    assert after["materials"]["Checker"] == before["materials"]["Checker"]
+    # without UV maps the renderer reads UV (0, 0, 0), where the checker shows its second colour, everywhere
+    points, colours = texel_points(obj, stylized_image(obj), uv_name="cp_stylize_atlas")
+    assert len(colours) > 1000 and near(colours, linear_to_srgb(np.array(BLUE)), tol=0.03).all()
+
+
+def eight_unusable_uv_maps(obj):
+    while len(obj.data.uv_layers) < 8:
+        obj.data.uv_layers.new(name=f"UV{len(obj.data.uv_layers)}")
+    for layer in obj.data.uv_layers:
+        overlapping_uvs(obj, layer.name)
+
+
+@pytest.mark.parametrize("colour", ["image", "procedural"])
+def test_a_mesh_at_the_limit_of_uv_maps_is_refused_before_the_run(addon, monkeypatch, colour):
+    obj = sphere(material=image_material("Painted", halves("source")) if colour == "image" else procedural_material())
+    eight_unusable_uv_maps(obj)
+    message = _refused_before_the_band_is_built(monkeypatch)
+    assert re.fullmatch(r"'Ball' has no usable UV map for the result \(UV triangles overlap at [0-9]+ texel\(s\)\) "
+                        r"and cannot get a new one: its mesh 'Sphere' already has 8 UV maps, Blender's limit: remove "
+                        r"one it does not need \(Object Data properties > UV Maps\) and press Stylize again",
+                        message), message
+
+
+def test_a_mesh_at_the_limit_of_uv_maps_with_a_usable_one_runs(addon):
+    obj = sphere(material=procedural_material())
+    while len(obj.data.uv_layers) < 8:
+        obj.data.uv_layers.new(name=f"UV{len(obj.data.uv_layers)}")
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == before["meshes"]["Sphere"]["uv_maps"]
+    assert stylized_image(obj).name == "Ball_stylized"
+
+
+def _corrupt_image(tmp_path, packed):
+    """An image 'good' whose file (or packed file) holds bytes that are not an image."""
+    image = halves("good", pack=False)
+    path = tmp_path / "good.png"
+    image.filepath_raw = str(path)
+    image.file_format = "PNG"
+    image.save()
+    path.write_bytes(b"\\x89PNG\\r\\n\\x1a\\nthis is not a png" * 10)
+    if packed:
+        image.pack(data=path.read_bytes(), data_len=len(path.read_bytes()))
+        path.unlink()
+    image.reload()
+    return image
+
+
+@pytest.mark.parametrize("case", ["one NaN UV", "corrupt file", "corrupt packed file"])
+def test_bad_uvs_and_unreadable_images_are_named_before_the_run(addon, tmp_path, monkeypatch, case):
+    if case == "one NaN UV":
+        obj = sphere(material=image_material("Painted", halves("source")))
+        obj.data.uv_layers["UVMap"].data[5].uv = (float("nan"), 0.5)
+        message = ("the UV map 'UVMap' of 'Ball' has 1 corner whose UV is not a finite number, and material 'Painted' "
+                   "reads the image 'source' through it: unwrap it again (UV > Unwrap in Edit Mode), or fix those "
+                   "corners, and press Stylize again")
+    else:
+        sphere(material=image_material("Painted", _corrupt_image(tmp_path, case == "corrupt packed file")))
+        message = (f"image 'good': its file {str(tmp_path / 'good.png')!r} could not be read (it is damaged, or not "
+                   "an image Blender can open): replace the file, or choose another image" if case == "corrupt file"
+                   else "image 'good': its packed file could not be read (it is damaged, or not an image Blender can "
+                        "open): replace it (Image > Replace), or choose another image")
+    assert _refused_before_the_band_is_built(monkeypatch) == message
 
 
 # -- 12. messages that name the real cause ---------------------------------------------------------
