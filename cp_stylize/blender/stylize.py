@@ -558,10 +558,26 @@ def _store(image, output, name, changes):
     return path
 
 
+#: The datablock collections whose items hold materials in slots of their own.
+_MATERIAL_HOLDERS = ("meshes", "curves", "metaballs", "volumes", "pointclouds", "hair_curves", "grease_pencils",
+                     "grease_pencils_v3")
+
+
 def _shown_by_others(material, obj):
-    """Whether an object other than ``obj`` shows ``material`` in one of its slots."""
-    return any(other != obj and any(slot.material == material for slot in other.material_slots)
-               for other in bpy.data.objects)
+    """Whether anything other than ``obj`` may show ``material``.
+
+    True where another object's slot shows it, and where it has users the
+    slots do not account for (a Geometry Nodes Set Material node, say).
+    """
+    if any(other != obj and any(slot.material == material for slot in other.material_slots)
+           for other in bpy.data.objects):
+        return True
+    known = int(material.use_fake_user)
+    for holders in _MATERIAL_HOLDERS:
+        known += sum(list(data.materials).count(material) for data in getattr(bpy.data, holders, ()))
+    known += sum(slot.link == "OBJECT" and slot.material == material
+                 for other in bpy.data.objects for slot in other.material_slots)
+    return material.users > known
 
 
 def _own_copy(material, obj):

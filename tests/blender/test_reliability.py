@@ -922,6 +922,32 @@ def test_another_object_showing_the_result_keeps_its_look(addon, how):
     assert after["materials"] == before["materials"] and after["objects"]["Other"] == before["objects"]["Other"]
 
 
+def test_a_result_another_object_shows_through_geometry_nodes_is_not_rewired(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copy = obj.material_slots[0].material
+    # another object shows the copy through a Set Material node of its own modifier
+    tree = bpy.data.node_groups.new("Paint it", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    set_material = tree.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = copy
+    tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], set_material.inputs["Geometry"])
+    tree.links.new(set_material.outputs["Geometry"], tree.nodes.new("NodeGroupOutput").inputs[0])
+    other = sphere("Other", location=(3.0, 0.0, 0.0))
+    other.modifiers.new("Paint it", "NODES").node_group = tree
+    bpy.context.view_layer.objects.active = obj
+    addon.time = 0.004
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["materials"]["Painted_stylized"] == before["materials"]["Painted_stylized"]
+    assert after["images"]["Ball_stylized"] == before["images"]["Ball_stylized"]
+    assert obj.material_slots[0].material.name == "Painted_stylized.001"
+    assert stylized_image(obj).name == "Ball_stylized.001"
+
+
 def _edit(image, how, tmp_path):
     """Edit a result image as a user would; returns it (reloaded after a save and reopen)."""
     px = pixels(image).copy()
