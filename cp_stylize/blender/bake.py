@@ -164,7 +164,10 @@ def _temporary_uv_maps(obj, uvs, loops, changes):
 
 
 def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
-    """Emitted colours of the output ``sockets`` ``{slot index: socket}`` baked on ``obj``: (size, size, 3) sRGB.
+    """Colours of output sockets baked on ``obj``: (size, size, 3) sRGB.
+
+    ``sockets`` maps slot indices to ``(material, output socket of its node
+    tree)``: the colour each slot's faces bake.
 
     The bake reads through the UV map ``uv_name``, or through per-corner
     ``uvs`` (F, 3, 2) at the mesh's triangle corners ``loops`` (F, 3), written
@@ -185,7 +188,7 @@ def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
         for index, slot in enumerate(obj.material_slots):
             material = slot.material
             if index in sockets:
-                temp = _emitting_copy(changes, material, sockets[index], image)
+                temp = _emitting_copy(changes, *sockets[index], image)
             else:
                 blank = blank or _blank_material(changes, image)
                 temp = blank

@@ -232,6 +232,24 @@ def _image_source(output, material, uv_names, owner):
                        wrap=WRAPS.get(node.extension, "repeat"), mapping=mapping)
 
 
+def source_material(material):
+    """The material whose colours a run on ``material`` reads.
+
+    ``material`` itself, except for a copy an earlier run made whose
+    :data:`NODE` no longer finds the node it replaced (deleted since): then
+    its original, which still has it, so that a run starts again from the
+    original colours rather than from the last result.
+    """
+    original = material.get(ORIGINAL)
+    if original is None or not uses_nodes(material):
+        return material
+    try:
+        origin = _linked(colour_input(material))
+    except StylizeError:
+        return material
+    return original if _ours(origin) and not _remembered(origin.node)[0] else material
+
+
 def colour_source(material, uv_names, owner):
     """How to read ``material``'s surface colour: Flat, ImageSource, AttributeSource or BakeSource.
 

@@ -247,7 +247,7 @@ def _image_texture(source, mesh, faces, material, owner):
 
 
 def _read_colours(obj, mesh, slots):
-    """The ColourInput of the faces, and the output sockets to bake: ``{slot index: socket}``."""
+    """The ColourInput of the faces, and what to bake: ``{slot index: (material, output socket)}``."""
     from ..pipeline import ColourInput
 
     n = len(mesh.triangles)
@@ -263,6 +263,7 @@ def _read_colours(obj, mesh, slots):
         material = obj.material_slots[index].material if len(obj.material_slots) else None
         if material is None:
             continue
+        material = materials.source_material(material)
         source = materials.colour_source(material, mesh.uv_maps.keys(), obj.name)
         if isinstance(source, materials.Flat):
             corner[faces] = source.colour
@@ -272,7 +273,7 @@ def _read_colours(obj, mesh, slots):
             corner[faces] = mesh.colours[source.name or mesh.render_colour][faces]
         else:
             socket = source.socket if isinstance(source, materials.BakeSource) else None
-            to_bake[index] = socket or materials.original_origin(materials.colour_input(material))
+            to_bake[index] = material, socket or materials.original_origin(materials.colour_input(material))
     return colours, to_bake
 
 

@@ -948,6 +948,23 @@ def test_a_result_another_object_shows_through_geometry_nodes_is_not_rewired(add
     assert stylized_image(obj).name == "Ball_stylized.001"
 
 
+@pytest.mark.parametrize("colour", ["image", "procedural"])
+def test_a_copy_whose_original_node_was_deleted_reads_its_original_again(addon, colour):
+    material = image_material("Painted", halves("source")) if colour == "image" else procedural_material()
+    obj = sphere(material=material)
+    addon.time = 0.004   # a filter that shows when it runs on its own result
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = pixels(stylized_image(obj)).copy()
+    copy = obj.material_slots[0].material
+    tree = copy.node_tree
+    tree.nodes.remove(next(n for n in tree.nodes if n.type in ("TEX_IMAGE", "TEX_CHECKER") and n.name != "cp_stylize"))
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    # the original's colours again, not the last result's: the same settings give the same image
+    assert changed_paths(before, snapshot()) == []
+    np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
+
+
 def _edit(image, how, tmp_path):
     """Edit a result image as a user would; returns it (reloaded after a save and reopen)."""
     px = pixels(image).copy()
