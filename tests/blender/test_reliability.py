@@ -656,9 +656,10 @@ def _muted(material, case):
     elif case.startswith("mix"):
         mix = tree.nodes.new("ShaderNodeMix")
         mix.data_type = "RGBA"
-        mix.inputs["B"].default_value = (*GREEN, 1.0)
-        tree.links.new(tex.outputs["Color"], mix.inputs["A" if case == "mix, image on A" else "B"])
-        tree.links.new(mix.outputs["Result"], base)
+        socket = {s.identifier: s for s in mix.inputs}
+        socket["B_Color"].default_value = (*GREEN, 1.0)
+        tree.links.new(tex.outputs["Color"], socket["A_Color" if case == "mix, image on A" else "B_Color"])
+        tree.links.new(next(s for s in mix.outputs if s.identifier == "Result_Color"), base)
         mix.mute = True   # passes A on, or nothing
     elif case == "gamma":
         gamma = tree.nodes.new("ShaderNodeGamma")
@@ -666,14 +667,18 @@ def _muted(material, case):
         tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
         tree.links.new(gamma.outputs["Color"], base)
         gamma.mute = True
-    else:   # a UV Map node naming the second map, through a Mapping node
+    else:   # a UV Map node naming the second map, through a Mapping node or directly
         uv = tree.nodes.new("ShaderNodeUVMap")
         uv.uv_map = "Second"
-        mapping = tree.nodes.new("ShaderNodeMapping")
-        mapping.inputs["Scale"].default_value = (2.0, 2.0, 1.0)
-        tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
-        tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
-        (mapping if case == "mapping" else uv).mute = True
+        if case == "mapping":
+            mapping = tree.nodes.new("ShaderNodeMapping")
+            mapping.inputs["Scale"].default_value = (2.0, 2.0, 1.0)
+            tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+            tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+            mapping.mute = True   # passes the second map's UVs on
+        else:
+            tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
+            uv.mute = True        # passes nothing: the image reads the render UV map
 
 
 @pytest.mark.parametrize("case", ["image", "link", "mix, image on A", "mix, image on B", "gamma", "mapping",
@@ -693,6 +698,7 @@ def test_muted_nodes_are_read_as_cycles_renders_them(addon, case):
     error = np.abs(read - cycles_emission(obj)).max(axis=1)
     print(f"\n{case}: median {np.median(error):.4f}, 98th percentile {np.percentile(error, 98):.4f}")
     assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
+    assert (np.ptp(read, axis=0).max() > 0.5) == (case not in ("image", "link"))   # the image, or one colour
 
 
 def test_a_muted_shader_is_named(addon):
