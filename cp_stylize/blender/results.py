@@ -53,16 +53,18 @@ def mark(image, obj):
 
 
 def made_by_a_run(image):
+    """Whether ``image`` is a result a run made."""
     return bool(image.get(MADE_BY))
 
 
 def edited(image):
-    """Whether a result image differs from what its run wrote (or cannot be told apart from an edited one)."""
+    """Whether a result image differs from what its run wrote: True, False, or None where that cannot be told
+    (a result made before results remembered their pixels)."""
     if image.is_dirty:
         return True
     recorded = image.get(DIGEST)
     if not recorded:
-        return True
+        return None
     w, h = image.size
     if w == 0 or h == 0:        # its file is gone: it holds no pixels to lose
         return False
@@ -82,34 +84,49 @@ class Replaced:
     def retire(self, new_images, changes):
         """Decide what becomes of the replaced images once the new ones are wired.
 
-        Gives the edited earlier results that nothing uses any more a fake
-        user (recorded in ``changes``).  Returns ``(unused, kept)``: the
-        images to remove once the run's changes are final, and the names of
-        those kept.
+        Gives the earlier results that nothing uses any more and that were
+        edited, or may have been, a fake user (recorded in ``changes``).
+        Returns ``(unused, kept)``: the images to remove once the run's
+        changes are final, and ``(name, edited)`` of those kept (``edited``
+        None where it cannot be told).
         """
         new = {image.as_pointer() for image in new_images}
         unused, kept = [], []
         for pointer, image in self._images.items():
             if pointer in new or not made_by_a_run(image) or image.users > 0:
                 continue
-            if edited(image):
-                changes.set(image, "use_fake_user", True)
-                kept.append(image.name)
-            else:
+            changed = edited(image)
+            if changed is False:
                 unused.append(image)
+            else:
+                changes.set(image, "use_fake_user", True)
+                kept.append((image.name, changed))
         return unused, kept
 
 
-def kept_note(names):
-    """What the report says about the edited earlier results a run kept ("" if none)."""
-    if not names:
+#: How the report says why earlier results were kept: by whether they were edited (None: cannot be told),
+#: for one result and for several.
+_WHY_KEPT = {True: ("the earlier result {} was edited after its run",
+                    "the earlier results {} were edited after their runs"),
+             None: ("the earlier result {} may have been edited (it was made before results remembered their "
+                    "pixels)",
+                    "the earlier results {} may have been edited (they were made before results remembered their "
+                    "pixels)")}
+
+
+def kept_note(kept):
+    """What the report says about the earlier results a run kept, ``(name, edited)`` each ("" if none)."""
+    notes = []
+    for known, (one, several) in _WHY_KEPT.items():
+        names = [repr(name) for name, edited in kept if edited is known]
+        if names:
+            listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + f" and {names[-1]}"
+            notes.append((one if len(names) == 1 else several).format(listed))
+    if not notes:
         return ""
-    if len(names) == 1:
-        return (f"; the earlier result {names[0]!r} was edited after its run, so it is kept, with a fake user so "
-                "that saving keeps it")
-    listed = ", ".join(repr(n) for n in names[:-1]) + f" and {names[-1]!r}"
-    return (f"; the earlier results {listed} were edited after their runs, so they are kept, with fake users so "
-            "that saving keeps them")
+    if len(kept) == 1:
+        return f"; {notes[0]}, so it is kept, with a fake user so that saving keeps it"
+    return f"; {'; '.join(notes)}, so they are kept, with fake users so that saving keeps them"
 
 
 def remove(images, wanted):

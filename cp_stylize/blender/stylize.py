@@ -102,7 +102,7 @@ class Applied:
     image: str                        # the new image's name
     path: str | None                  # the file it was saved as
     materials: tuple                  # names of the materials that show it
-    kept: tuple = ()                  # names of earlier results it replaced that were edited, and are kept
+    kept: tuple = ()                  # (name, edited) of the earlier results it replaced and kept (see results)
 
 
 # -- what runs keep for the next ---------------------------------------------------------------

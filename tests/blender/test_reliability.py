@@ -977,6 +977,9 @@ def _edit(image, how, tmp_path):
     rgba = np.ones(px.shape[:2] + (4,), np.float32)
     rgba[..., :3] = px
     rgba[100:200, 100:200, :3] = (1.0, 1.0, 0.0)     # a yellow square
+    if how == "made before results had digests":
+        del image["cp_stylize_digest"]
+        return image
     if how == "resized":
         image.scale(256, 256)
         return image
@@ -995,7 +998,8 @@ def _edit(image, how, tmp_path):
     return image
 
 
-@pytest.mark.parametrize("how", ["painted", "painted and packed", "painted, packed, saved and reopened", "resized"])
+@pytest.mark.parametrize("how", ["painted", "painted and packed", "painted, packed, saved and reopened", "resized",
+                                 "made before results had digests"])
 def test_an_edited_result_is_kept_by_the_next_run(addon, capfd, tmp_path, how):
     from blender_state import pixel_hash
 
@@ -1007,8 +1011,9 @@ def test_an_edited_result_is_kept_by_the_next_run(addon, capfd, tmp_path, how):
     before = snapshot()
     kind, message = run_report(capfd)
     after = snapshot()
-    note = ("; the earlier result 'Ball_stylized' was edited after its run, so it is kept, with a fake user so that "
-            "saving keeps it")
+    why = ("may have been edited (it was made before results remembered their pixels)"
+           if how == "made before results had digests" else "was edited after its run")
+    note = f"; the earlier result 'Ball_stylized' {why}, so it is kept, with a fake user so that saving keeps it"
     assert kind == "Warning" and re.fullmatch(report_pattern("Ball", "Ball_stylized.001", note), message), message
     assert changed_paths(before, after) == ["counts.images", "images.Ball_stylized", "images.Ball_stylized.001",
                                             "materials.Painted_stylized.nodes"]
