@@ -2,9 +2,10 @@
 
 One test a case: files next to the .blend, the user's images during a
 procedural bake, failures after the core has run, what the renderer reads
-(UV maps, texture coordinates, shaders, colour spaces, image extension), the
-scope of a run (loose vertices, linked duplicates, library data, a second
-run), the messages, and the limits.  Each test compares snapshots of the
+(UV maps, texture coordinates, shaders, colour spaces, image extension, muted
+nodes), the scope of a run (loose vertices, linked duplicates, library data, a
+second run), second runs on shared or edited results, shared meshes and UV
+maps, the messages, and the limits.  Each test compares snapshots of the
 whole file (``blender_state``) and the exact message the user sees.
 """
 
