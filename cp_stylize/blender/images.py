@@ -46,11 +46,18 @@ def check_readable(image):
         raise StylizeError(f"image {image.name!r} is tiled (UDIM), which is not supported")
     if image.source not in ("FILE", "GENERATED"):
         raise StylizeError(f"image {image.name!r} has source {image.source}; use a still image")
+    path = None
     if image.source == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
             raise StylizeError(f"image {image.name!r}: its file {path!r} is missing")
     if image.size[0] == 0 or image.size[1] == 0:
+        if path is not None:
+            raise StylizeError(f"image {image.name!r}: its file {path!r} could not be read (it is damaged, or not an "
+                               "image Blender can open): replace the file, or choose another image")
+        if image.packed_file is not None:
+            raise StylizeError(f"image {image.name!r}: its packed file could not be read (it is damaged, or not an "
+                               "image Blender can open): replace it (Image > Replace), or choose another image")
         raise StylizeError(f"image {image.name!r} has no pixels")
 
 

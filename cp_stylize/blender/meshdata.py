@@ -26,7 +26,7 @@ class MeshData:
     triangles: np.ndarray           # (F, 3) vertex indices
     loops: np.ndarray               # (F, 3) loop (face corner) indices
     material_index: np.ndarray      # (F,)
-    same_topology: bool             # the evaluated mesh's corners are the original mesh's
+    same_topology: bool             # the evaluated mesh's faces and corners are the original mesh's, in order
     uv_maps: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 2)
     render_uv: str | None = None    # the UV map the renderer reads by default
     colours: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 3) sRGB-encoded
@@ -85,8 +85,7 @@ def read(obj, depsgraph=None, *, corners=True, vectors=None):
         tris = _get(mesh.loop_triangles, "vertices", n, np.int64, 3)
         verts = _get(mesh.vertices, "co", len(mesh.vertices), np.float64, 3)
         data = MeshData(vertices=verts, triangles=tris, loops=None, material_index=None,
-                        same_topology=(len(mesh.loops) == len(obj.data.loops)
-                                       and len(mesh.polygons) == len(obj.data.polygons)))
+                        same_topology=same_corners(mesh, obj.data))
         if corners:
             data.loops = _get(mesh.loop_triangles, "loops", n, np.int64, 3)
             data.material_index = _get(mesh.loop_triangles, "material_index", n, np.int64)
@@ -167,6 +166,34 @@ def _check_surface(name, local, vertices, triangles):
                        f"or at one point{why}")
 
 
+def same_corners(evaluated, original):
+    """Whether mesh ``evaluated`` has ``original``'s faces and face corners, in the same order.
+
+    Only then does a value written at a corner of the original mesh reach the
+    same corner of the evaluated one.  Modifiers that keep the counts but not
+    the order (Flip Faces, Sort Elements) fail this test.
+    """
+    if len(evaluated.loops) != len(original.loops) or len(evaluated.polygons) != len(original.polygons):
+        return False
+    return all(np.array_equal(_get(a, attr, len(a), np.int32), _get(b, attr, len(b), np.int32))
+               for a, b, attr in ((evaluated.polygons, original.polygons, "loop_start"),
+                                  (evaluated.polygons, original.polygons, "loop_total"),
+                                  (evaluated.loops, original.loops, "vertex_index")))
+
+
+def evaluated_uvs(obj, name, depsgraph=None):
+    """UV map ``name`` (L, 2) of ``obj``'s evaluated mesh, as its modifiers leave it (None if it is not there)."""
+    obj.data.update()
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        layer = mesh.uv_layers.get(name)
+        return None if layer is None else _get(layer.data, "uv", len(mesh.loops), np.float32, 2)
+    finally:
+        evaluated.to_mesh_clear()
+
+
 def fingerprint(obj):
     """A hash of what a run on ``obj`` read: its mesh, transform, modifiers, UV maps and material slots."""
     mesh = obj.data
@@ -187,7 +214,26 @@ def slots_state(obj):
 
 
 def write_corner_uvs(layer, loops, uvs):
-    """Write per-corner ``uvs`` (F, 3, 2) into UV map ``layer`` at the triangle corners ``loops`` (F, 3)."""
+    """Write per-corner ``uvs`` (F, 3, 2) into UV map ``layer`` at the triangle corners ``loops`` (F, 3).
+
+    Returns what was written (L, 2).
+    """
     data = np.zeros((len(layer.data), 2), dtype=np.float32)
     data[np.asarray(loops).ravel()] = np.asarray(uvs, dtype=np.float32).reshape(-1, 2)
     layer.data.foreach_set("uv", data.ravel())
+    return data
+
+
+def check_written_uvs(obj, name, written, *, after_run=False):
+    """StylizeError unless ``obj``'s modifiers leave the UV map ``name`` just written (``written``, (L, 2)) as it is.
+
+    A modifier that rewrites UV maps (UV Warp or UV Project on the active map,
+    a Geometry Nodes setup) would otherwise show the result through UVs it
+    was not made for.
+    """
+    evaluated = evaluated_uvs(obj, name)
+    if evaluated is not None and evaluated.shape == written.shape and np.array_equal(evaluated, written):
+        return
+    raise StylizeError(f"the modifiers of {obj.name!r} change the UVs of a new UV map, which the result needs as "
+                       f"they are{'; nothing was changed' if after_run else ''}: apply the modifiers first, or give "
+                       "the mesh a usable UV map")

@@ -132,14 +132,16 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         return stylize.prepare(context.active_object, settings, panel.output())
 
     def _finish(self, job):
-        from . import stylize
+        from . import results, stylize
 
         applied = stylize.apply(job)
         result = job.result
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
         reused = ", the last run's band reused" if "band" in job.reused else ""
-        self.report({"INFO"}, f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
-                              f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})")
+        self.report({"WARNING"} if applied.kept else {"INFO"},
+                    f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
+                    f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})"
+                    f"{results.kept_note(applied.kept)}")
         return {"FINISHED"}
 
     def execute(self, context):
