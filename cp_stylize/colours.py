@@ -22,7 +22,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .sparse import map_parallel
 
-__all__ = ["ColourHull", "TOLERANCE"]
+__all__ = ["ColourHull", "TOLERANCE", "distinct_colours"]
 
 #: Colours are rounded to this grid before the hull is built (8 bits a channel): far
 #: fewer points, and the hull of the input's colours "beyond rounding".
@@ -33,6 +33,38 @@ TOLERANCE = 1.0 / _LEVELS
 _CELLS = 32
 #: Colours tested against the facets at once.
 _CHUNK = 1 << 16
+
+
+#: Pixels rounded at once by :func:`distinct_colours`.
+_PIXELS = 1 << 20
+
+
+def distinct_colours(values):
+    """The distinct colours of ``values`` (..., C) rounded to 8 bits a channel, as (M, C) float64 in [0, 1].
+
+    The hull of these is :class:`ColourHull`'s, so a large image can hand it
+    its few distinct colours instead of every pixel: the pixels are rounded a
+    million at a time into a table of the 2^24 colours of three channels, so
+    the memory this takes does not grow with the image.  Colours that are
+    not finite numbers are left out.
+    """
+    values = np.asarray(values)
+    flat = values.reshape(-1, values.shape[-1] if values.ndim > 1 else 1)
+    channels = flat.shape[1]
+    if channels > 3:
+        finite = flat[np.all(np.isfinite(flat), axis=1)]
+        return _distinct(np.clip(np.round(finite * _LEVELS), 0, _LEVELS).astype(np.int64)) / _LEVELS
+    seen = np.zeros((_LEVELS + 1) ** channels, dtype=bool)
+    weights = (_LEVELS + 1) ** np.arange(channels)
+    for start in range(0, len(flat), _PIXELS):
+        chunk = flat[start:start + _PIXELS].astype(np.float32, copy=False)
+        finite = np.isfinite(chunk @ np.ones(channels, np.float32))      # NaN, and inf - inf, in any channel
+        levels = np.rint(chunk * np.float32(_LEVELS))
+        np.clip(levels, 0, _LEVELS, out=levels)
+        keys = levels @ weights.astype(np.float32)                        # whole numbers below 2^24: exact
+        seen[keys[finite].astype(np.int32)] = True
+    keys = np.flatnonzero(seen)
+    return ((keys[:, None] // weights) % (_LEVELS + 1)) / _LEVELS
 
 
 def _distinct(levels):

@@ -25,7 +25,35 @@ import numpy as np
 from .arrays import as_points, count, unit_rows
 from .nearest import TriangleSearch
 
-__all__ = ["TriangleMesh", "parametric_mesh"]
+__all__ = ["TriangleMesh", "parametric_mesh", "surface_faces"]
+
+
+#: A face whose height is at most this share of its longest edge is degenerate (see :func:`surface_faces`).
+TOLERANCE = 1e-10
+
+
+def surface_faces(vertices, faces, tolerance=TOLERANCE):
+    """Which ``faces`` (F, 3) of ``vertices`` (V, 3) are surface: boolean (F,).
+
+    A face is skipped as degenerate, with no surface, where two of its corners
+    are one vertex or where its height (twice its area over its longest edge)
+    is at most ``tolerance`` times its longest edge: corners on a line or at
+    one point.  The test does not change when the mesh is scaled or turned.
+    """
+    return _surface_faces(np.asarray(vertices, dtype=np.float64), np.asarray(faces), tolerance)[0]
+
+
+def _surface_faces(vertices, faces, tolerance):
+    """The mask of :func:`surface_faces`, and each face's twice area (F,)."""
+    a = vertices[faces[:, 0]]
+    ab, ac = vertices[faces[:, 1]] - a, vertices[faces[:, 2]] - a
+    cross = np.cross(ab, ac)
+    twice_area = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    longest2 = np.maximum(np.einsum("ij,ij->i", ab, ab), np.einsum("ij,ij->i", ac, ac))
+    ac -= ab                                                           # the third edge, b to c
+    np.maximum(longest2, np.einsum("ij,ij->i", ac, ac), out=longest2)
+    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
+    return ~repeated & (twice_area > tolerance * longest2) & (longest2 > 0), twice_area
 
 
 class TriangleMesh:
@@ -68,7 +96,7 @@ class TriangleMesh:
     face numbers, so per-corner data given for the input faces (UVs) line up.
     """
 
-    def __init__(self, vertices, faces, *, tolerance=1e-10):
+    def __init__(self, vertices, faces, *, tolerance=TOLERANCE):
         vertices = np.asarray(vertices)
         if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
             raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
@@ -94,12 +122,7 @@ class TriangleMesh:
         if not np.isfinite(tolerance) or tolerance < 0:
             raise ValueError(f"tolerance must be a non-negative number, got {tolerance!r}")
 
-        a, b, c = (vertices[faces[:, k]] for k in range(3))
-        twice_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-        longest = np.sqrt(np.max([((b - a) ** 2).sum(1), ((c - b) ** 2).sum(1), ((a - c) ** 2).sum(1)],
-                                 axis=0))
-        repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
-        keep = ~repeated & (twice_area > tolerance * longest**2) & (longest > 0)
+        keep, twice_area = _surface_faces(vertices, faces, tolerance)
         if not keep.any():
             raise ValueError(f"faces must include a non-degenerate triangle, "
                              f"got {len(faces)} degenerate face(s)")

@@ -7,7 +7,8 @@ each mode takes and their defaults.  The core's validation
 add-on's properties and panel, and the README's tables are all built from
 these, so a new parameter or mode is an edit in this file.
 
-Units are those of an object normalised to a longest side of 2 (paper,
+Units are those of an object normalised to a diameter of 2 (the greatest
+distance between two points of its surface: a sphere of radius 1; paper,
 section 4.5): ``"time"`` is a diffusion time in squared lengths, ``"length"``
 a length, ``"ratio"`` a number relative to the input's own contrast or a
 fraction, ``"count"`` a whole number.
@@ -19,7 +20,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "NOISE_MAPPINGS", "check_value"]
+           "DIRECTED_MODES", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,10 +63,10 @@ def check_value(name, value, minimum, maximum):
 
 #: The run's own parameters.
 RUN = {p.name: p for p in (
-    Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to 2): how far the "
+    Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to a diameter of 2): how far the "
                            "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time"),
-    Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a longest "
-                                         "side of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
+    Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a "
+                                         "diameter of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
     Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
                                          "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
     Parameter("noise_spread", "Spread", "Noise by tone and hue: how far from its own colour a point may pick "
@@ -73,12 +74,12 @@ RUN = {p.name: p for p in (
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution)", 0.0, 1.0, 1.0),
-    Parameter("strokes", "Strokes", "Brush strokes at the texture's resolution, drawn along the result's flow in "
-                                    "the palette's colours, this strong (0: none; needs a palette)", 0.0, 1.0, 0.0),
+    Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
+                                    "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0),
     Parameter("stroke_length", "Stroke Length", "Length of the largest brush strokes (object normalised to a "
-                                                "longest side of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
-    Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a longest "
-                                              "side of 2); strokes narrower than three texels are not drawn",
+                                                "diameter of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
+    Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a diameter "
+                                              "of 2); strokes narrower than three texels are not drawn",
               0.003, 0.2, 0.03, "length", precision=4, step=0.1),
     Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.8 times "
                                          "narrower and go only where the picture has detail", 1, 4, 3, "count",
@@ -95,6 +96,9 @@ RUN = {p.name: p for p in (
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0),
 )}
+
+#: Seeds of the random noise: whole numbers a 32-bit integer holds, as Blender's integer properties do.
+SEED_LIMITS = (0, 2**31 - 1)
 
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
 FILTER_PARAMETERS = {p.name: p for p in (

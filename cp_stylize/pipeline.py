@@ -1,7 +1,8 @@
 """The whole stylization of a textured triangle mesh, from colours in to an atlas image out.
 
-1. Normalise the mesh so that its longest side is 2 (the paper's scale, so a
-   setting looks the same whatever the object's size).
+1. Normalise the mesh so that its diameter is 2 (the paper's scale, so a
+   setting looks the same whatever the object's size and however it is
+   turned).
 2. Decide the output's UV atlas (first, so that a mesh that cannot get one
    fails before the long part).
 3. Build the closest point band around the mesh.
@@ -29,15 +30,16 @@ import numpy as np
 from .atlas import XATLAS_FACES, UnusableUVs, uv_atlas
 from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
 from .cache import RunCache, digest
-from .colours import ColourHull
+from .colours import ColourHull, distinct_colours
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
-from .parameters import DIRECTED_MODES
-from .mesh import TriangleMesh
+from .extent import diameter
+from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
 from .painting import painting
 from .palette import map_to_palette, palette_noise
+from .parameters import DIRECTED_MODES
 from .strokes import Brush
 from .sampling import texture_at
 
@@ -45,8 +47,9 @@ __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate",
            "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours",
            "stylize", "estimate", "estimate_run"]
 
-#: Every object is scaled so that its longest side is this long (the paper's scale).
-NORMAL_LENGTH = 2.0
+#: Every object is scaled so that its diameter (the greatest distance between two points of its surface)
+#: is this long: the paper's scale, at which a sphere has radius 1.
+NORMAL_DIAMETER = 2.0
 
 #: Heat flow time, in h^2, that evens out the shape operator of a mesh before its principal
 #: directions are taken (the interpolated normals bend face by face).
@@ -57,11 +60,15 @@ KEEP_BAKE_TEXELS = 1 << 20
 
 
 def normalisation(vertices, faces):
-    """``(centre, scale)`` that map the mesh to a longest side of 2 centred at the origin.
+    """``(centre, scale)`` that map the mesh's surface to a diameter of 2 centred at the origin.
 
-    The box is that of the vertices the faces use: loose vertices, which the
-    surface does not have, do not count.  Raises ValueError for a mesh with
-    no extent or with positions that are not finite numbers.
+    Only what the surface has counts: the vertices of its faces that have an
+    area (:func:`cp_stylize.mesh.surface_faces`), so loose vertices and faces
+    whose corners lie on a line or at one point change nothing.  The diameter
+    (:func:`cp_stylize.extent.diameter`) does not change when the mesh is
+    turned, so neither does the grid's spacing relative to the surface; the
+    centre is that of the surface's box.  Raises ValueError for a mesh
+    without surface or with positions that are not finite numbers.
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces)
@@ -69,12 +76,19 @@ def normalisation(vertices, faces):
         raise ValueError(f"vertices must have shape (V, 3) with V > 0, got {vertices.shape}")
     if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
         raise ValueError(f"faces must have shape (F, 3) with F > 0, got {faces.shape}")
-    used = vertices[np.unique(faces)]
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces.ravel()] = True
+    if not np.all(np.isfinite(vertices[used])):
+        raise ValueError("the mesh has vertex positions that are not finite numbers")
+    surface = surface_faces(vertices, faces)
+    if not surface.any():
+        raise ValueError(f"the mesh has no surface: the corners of each of its {len(faces):,} face(s) lie on a "
+                         "line or at one point")
+    used[:] = False
+    used[faces[surface].ravel()] = True
+    used = vertices[used]
     lo, hi = used.min(axis=0), used.max(axis=0)
-    longest = float((hi - lo).max())
-    if not np.isfinite(longest) or longest <= 0:
-        raise ValueError(f"the mesh has no extent (longest side {longest!r})")
-    return 0.5 * (lo + hi), NORMAL_LENGTH / longest
+    return 0.5 * (lo + hi), NORMAL_DIAMETER / diameter(used)
 
 
 def stroke_field(band, settings, directions=None):
@@ -167,6 +181,11 @@ class ColourInput:
         colour = np.asarray(colour, dtype=np.float32)
         return cls(corner_colours=np.broadcast_to(colour, (n_faces, 3, len(colour))).copy())
 
+    @property
+    def image_pixels(self):
+        """The pixels of the textures' images, for :func:`estimate`."""
+        return sum(int(np.prod(np.shape(Texture(*t).image)[:2])) for t in self.textures)
+
 
 @dataclasses.dataclass
 class StylizeResult:
@@ -219,17 +238,20 @@ def input_colours(colours, settings, channels=3):
     """The colours a run is given (M, channels): its textures' texels, its corner colours and the palette.
 
     Everything the band samples is a mix of these, so their hull holds every colour the input can make.
+    A texture gives its distinct colours at 8 bits a channel (:func:`cp_stylize.colours.distinct_colours`),
+    which have the hull of its texels, so a large image costs no copy of its pixels.
     """
     found = []
     for texture in colours.textures:
-        image = np.asarray(Texture(*texture).image, dtype=np.float32)
-        image = image.reshape(-1, image.shape[-1] if image.ndim == 3 else 1)
-        found.append(np.pad(image[:, :channels], ((0, 0), (0, max(0, channels - image.shape[1])))))
+        image = np.asarray(Texture(*texture).image)
+        image = image[..., :channels] if image.ndim == 3 else image[..., None]
+        distinct = distinct_colours(image).astype(np.float32)
+        found.append(np.pad(distinct, ((0, 0), (0, channels - distinct.shape[1]))))
     if colours.corner_colours is not None:
         corners = np.asarray(colours.corner_colours, dtype=np.float32)
         corners = corners.reshape(-1, corners.shape[-1])[:, :channels]
         found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
-    if settings.noise_on:
+    if settings.noise_on or settings.strokes > 0:                # the noise and the strokes paint with it
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
     covered = colours.corner_colours is not None or (
         bool(colours.textures) and np.all(np.any([np.asarray(Texture(*t).faces, bool) for t in colours.textures], axis=0)))
@@ -249,7 +271,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     faces : ndarray (F, 3)
     colours : ColourInput
     settings : StylizeSettings
-        Relative to an object whose longest side is 2.
+        Relative to an object whose diameter is 2.
     uvs : ndarray (F, 3, 2), optional
         The mesh's own per-corner UVs for the output atlas; used where usable,
         otherwise a new atlas is made (see :func:`cp_stylize.atlas.uv_atlas`).
@@ -311,7 +333,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
 
     band = cache.get("band", (shape, settings.spacing, stencil), new_band)
     lap("band")
-    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to length 2)")
+    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to a diameter of 2)")
     report(0.1)
     painted = (shape, settings.spacing, stencil, colour_digest(colours))
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
@@ -381,6 +403,8 @@ SECONDS_PER_TRIANGLE = 2e-5
 SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 1.6e-4, "charts": 3e-6}
 #: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
 SECONDS_PER_TEXEL = 8e-7
+#: ... per pixel of the input images (read out, their colours' hull, their detail) ...
+SECONDS_PER_IMAGE_PIXEL = 1e-7
 #: ... and once a run (the colour hull, the normalisation, small set-ups).
 SECONDS_PER_RUN = 0.9
 
@@ -399,14 +423,19 @@ BYTES_PER_TEXEL = 128
 #: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
 #: indices on the baked share and the margin) ...
 BYTES_KEPT_PER_TEXEL = 680
+#: ... a pixel of the input images (their float RGBA pixels read out, and the host's own buffer of
+#: them: 16 bytes each for a float image in Blender) ...
+BYTES_PER_IMAGE_PIXEL = 32
 #: ... and the libraries a Python process with NumPy and SciPy holds.
 BYTES_PER_RUN = 200 * 2**20
 
 
-def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False):
+def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False, image_pixels=0, speed=1.0):
     """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
     ``n_points`` band points around a mesh of ``triangles``; ``keep``: with a :class:`RunCache`, which
-    also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made."""
+    also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made;
+    ``image_pixels``: the pixels of the input images; ``speed``: how many times longer than the
+    machine the constants were measured on this computer takes (:mod:`cp_stylize.calibration`)."""
     from .diffusion import PAPER_CFL
     from .heat_flow import time_steps
 
@@ -417,15 +446,17 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
     texels = settings.image_size ** 2
     seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
+    seconds += image_pixels * SECONDS_PER_IMAGE_PIXEL
     if unwrap:
         seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
     if settings.strokes > 0:
         layers = settings.stroke_layers
         seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
     nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
-    return seconds, nbytes
+    return seconds * speed, nbytes
 
 
 @dataclasses.dataclass(frozen=True)
@@ -438,13 +469,23 @@ class RunEstimate:
     seconds: float
 
 
-def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False):
-    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings`` (``keep``: with a cache;
-    ``unwrap``: the mesh has no UVs, so a new atlas is made)."""
+def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False, image_pixels=0, speed=None):
+    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings``.
+
+    ``keep``: with a cache; ``unwrap``: the mesh has no UVs, so a new atlas is
+    made; ``image_pixels``: the pixels of the input images
+    (:attr:`ColourInput.image_pixels`); ``speed``: the time factor of this
+    computer (None: :func:`cp_stylize.calibration.machine_speed`, measured
+    once a process, well under a second).
+    """
     centre, scale = normalisation(vertices, faces)
     vertices = np.asarray(vertices, dtype=np.float64)
     a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
     area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
     n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
-    seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap)
+    if speed is None:
+        from .calibration import machine_speed
+
+        speed = machine_speed()
+    seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap, image_pixels, speed)
     return RunEstimate(settings.spacing / scale, n, nbytes, seconds)

@@ -2,7 +2,7 @@
 
 All settings of a run travel as one frozen :class:`StylizeSettings`.  Lengths
 and times are relative to the object's size: the object is normalised so that
-its longest side is 2 (as in the paper), so a preset looks the same on a 2 cm
+its diameter is 2 (as in the paper: a sphere of radius 1), so a preset looks the same on a 2 cm
 object and on a 20 m one.
 
 A preset is a TOML file (see ``presets/`` at the top of the repository and of
@@ -11,8 +11,8 @@ the extension)::
     name = "Starry Night"
     description = "..."
     mode = "ced"          # one of cp_stylize.MODES
-    T = 1.1e-4            # stop time (object 2 units long)
-    spacing = 0.008       # grid spacing (object 2 units long)
+    T = 1.1e-4            # stop time (object 2 units across)
+    spacing = 0.008       # grid spacing (object 2 units across)
     detail = 1.0          # optional: the texture's own detail, finer than the grid, laid back (0 to 1)
     direction = "min"     # optional, CED and Flow: what the strokes follow (cp_stylize.parameters.DIRECTIONS)
     axis = [0, 0, 1]      # direction "axis": the axis, in the object's space
@@ -23,7 +23,7 @@ the extension)::
 
     [strokes]             # optional: brush strokes in the palette's colours (cp_stylize.strokes)
     strength = 1.0
-    length = 0.1          # object 2 units long
+    length = 0.1          # object 2 units across
     width = 0.01
 
     [noise]               # optional: replace a fraction of band points by palette colours
@@ -31,20 +31,39 @@ the extension)::
     mapping = "tone"      # optional: "random" (the paper's) or "tone" (cp_stylize.parameters.NOISE_MAPPINGS)
     spread = 0.1          # mapping "tone": the jitter of the tones
     seed = 1889
-    palette = [["#0b1a3a", 6], ["#f3d54e", 1]]   # sRGB hex colour and relative weight
+    palette = [["#0b1a3a", 6], ["#f3d54e", 1]]   # sRGB colour ("#rrggbb" or [r, g, b] in [0, 1]) and weight
+
+    [output]              # optional
+    size = 1024           # the image's texels a side
+    margin = 16           # texels around the islands that repeat their border colours
+
+Every field is checked before anything uses the preset, and a preset with a
+bad field is refused as a whole, with one message that names the file and
+each bad field.  :func:`save_preset` writes every field, so a saved preset
+loads back as it was.
+
+Where presets are found (:func:`find_preset`): a preset is named by its key,
+the name of its file without ``.toml`` (``"starry_night"``), or by a file's
+path.  The shipped presets come first, so a key always means the same file;
+a user's preset is saved under a key of its own (:func:`save_user_preset`)
+and never over another preset.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import os
+import tempfile
 import tomllib
 from collections.abc import Mapping
 
-from .parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, check_value
+from .parameters import (DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, SEED_LIMITS,
+                         check_value)
 
-__all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex"]
+__all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex",
+           "preset_paths", "find_preset", "preset_key", "preset_label", "save_user_preset", "remove_user_preset"]
 
 #: The presets shipped with cp_stylize.
 PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets")
@@ -56,6 +75,10 @@ _TIMES = {p.name for p in (*RUN.values(), *FILTER_PARAMETERS.values()) if p.unit
 
 #: Output image sizes a run may ask for, in texels a side.
 IMAGE_SIZES = (16, 8192)
+#: Margins a run may ask for, in texels.
+MARGINS = (0, 256)
+#: The longest name a saved preset may have, in characters.
+NAME_LENGTH = 64
 
 
 class _Params(Mapping):
@@ -82,9 +105,123 @@ class _Params(Mapping):
         return repr(self._values)
 
 
+# -- one check a field: each returns the value it accepts, or raises ValueError naming ``label`` ---------
+
+
+def _text(label, value):
+    if not isinstance(value, str):
+        raise ValueError(f"{label} must be text, got {value!r}")
+    return value
+
+
+def _choice(choices, *, optional=False):
+    def check(label, value):
+        if optional and value is None:
+            return None
+        if not isinstance(value, str) or value not in choices:
+            raise ValueError(f"{label} must be one of {list(choices)}, got {value!r}")
+        return value
+    return check
+
+
+def _whole(low, high):
+    def check(label, value):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+            raise ValueError(f"{label} must be a whole number in [{low}, {high}], got {value!r}")
+        return int(value)
+    return check
+
+
+def _parameter(parameter):
+    if parameter.unit == "count":
+        return _whole(int(parameter.minimum), int(parameter.maximum))
+    return lambda label, value: check_value(label, value, parameter.minimum, parameter.maximum)
+
+
+def _real(value):
+    return not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(value)
+
+
+def _axis(label, value):
+    try:
+        axis = tuple(float(a) for a in value) if not isinstance(value, str) else ()
+    except (TypeError, ValueError):
+        axis = ()
+    if len(axis) != 3 or not all(_real(a) for a in value) or not any(axis):
+        raise ValueError(f"{label} must be three finite numbers, not all zero, got {value!r}")
+    return axis
+
+
+def _colours(label, value):
+    colours = tuple(tuple(c) if isinstance(c, (tuple, list)) else c for c in value) \
+        if isinstance(value, (tuple, list)) else None
+    if colours is None or not all(isinstance(c, tuple) and len(c) == 3 and all(_real(x) and 0 <= x <= 1 for x in c)
+                                  for c in colours):
+        raise ValueError(f"{label} must be colours of three numbers in [0, 1], got {value!r}")
+    return tuple(tuple(float(x) for x in c) for c in colours)
+
+
+def _weights(label, value):
+    if not isinstance(value, (tuple, list)) or not all(_real(w) and w >= 0 for w in value):
+        raise ValueError(f"{label} must be numbers of at least 0, one a colour, got {value!r}")
+    return tuple(float(w) for w in value)
+
+
+def _params(label, value):
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{label} must be a table of filter parameters ({', '.join(_PARAMS)}), got {value!r}")
+    unknown = sorted(set(value) - set(FILTER_PARAMETERS), key=str)
+    if unknown:
+        raise ValueError(f"unknown filter parameter(s) {unknown}; known: {list(FILTER_PARAMETERS)}")
+    problems, params = [], {}
+    for name, v in value.items():
+        if v is not None:
+            try:
+                params[name] = FILTER_PARAMETERS[name].check(v)
+            except ValueError as err:
+                problems.append(str(err))
+    if problems:
+        raise ValueError("; ".join(problems))
+    return _Params(params)
+
+
+#: How each field of :class:`StylizeSettings` is checked (its limits: :mod:`cp_stylize.parameters`).
+_CHECKS = {
+    "mode": _choice(MODES),
+    **{name: _parameter(parameter) for name, parameter in RUN.items()},
+    "params": _params,
+    "noise_mapping": _choice(NOISE_MAPPINGS),
+    "palette": _colours,
+    "palette_weights": _weights,
+    "seed": _whole(*SEED_LIMITS),
+    "direction": _choice(DIRECTIONS, optional=True),
+    "axis": _axis,
+    "attribute": _text,
+    "image_size": _whole(*IMAGE_SIZES),
+    "margin": _whole(*MARGINS),
+    "name": _text,
+    "description": _text,
+}
+
+
+def _checked(values, labels):
+    """``values`` ({field: value}) each checked, and the messages of those that are bad (``labels`` names them)."""
+    good, problems = {}, []
+    for field, value in values.items():
+        try:
+            good[field] = _CHECKS[field](labels.get(field, field), value)
+        except ValueError as err:
+            problems.append(str(err))
+    return good, problems
+
+
 @dataclasses.dataclass(frozen=True)
 class StylizeSettings:
-    """Everything a stylization run needs, relative to an object whose longest side is 2."""
+    """Everything a stylization run needs, relative to an object whose diameter is 2.
+
+    Every field is checked when the settings are made: a ValueError names each
+    bad one, what it must be and what it got.
+    """
 
     mode: str = "ced"
     T: float = 1e-4
@@ -104,8 +241,8 @@ class StylizeSettings:
     contours: float = 0.0           # lines along the strong edges (cp_stylize.contours)
     relief: float = 0.0             # the strokes' height, as a second image
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
-    palette_weights: tuple = ()
-    seed: int = 0
+    palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
+    seed: int = 0                   # a whole number in SEED_LIMITS
     direction: str | None = None    # CED and Flow: see DIRECTIONS; None: the mode's own (stroke_direction)
     axis: tuple = (0.0, 0.0, 1.0)   # direction "axis", in the object's space
     attribute: str = ""             # direction "attribute": the mesh's vector attribute, for the add-on
@@ -115,44 +252,33 @@ class StylizeSettings:
     description: str = ""
 
     def __post_init__(self):
-        """Check every value against its limits in :mod:`cp_stylize.parameters` (the panel's limits)."""
-        if self.mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        for parameter in RUN.values():
-            object.__setattr__(self, parameter.name, parameter.check(getattr(self, parameter.name)))
-        unknown = set(self.params) - set(FILTER_PARAMETERS)
-        if unknown:
-            raise ValueError(f"unknown filter parameter(s) {sorted(unknown)}; known: {list(FILTER_PARAMETERS)}")
-        params = {name: FILTER_PARAMETERS[name].check(value) for name, value in self.params.items()
-                  if value is not None}
-        object.__setattr__(self, "params", _Params(params))
-        if self.noise_mapping not in NOISE_MAPPINGS:
-            raise ValueError(f"noise mapping must be one of {list(NOISE_MAPPINGS)}, got {self.noise_mapping!r}")
-        if (self.noise_fraction > 0 or self.noise_mapping == "tone") and not self.palette:
+        """Check every field (the limits are the panel's, :mod:`cp_stylize.parameters`), then how they fit."""
+        values, problems = _checked({f.name: getattr(self, f.name) for f in dataclasses.fields(self)}, {})
+        if problems:
+            raise ValueError("; ".join(problems))
+        if values["palette"] and not values["palette_weights"]:
+            values["palette_weights"] = (1.0,) * len(values["palette"])      # all alike
+        for field, value in values.items():
+            object.__setattr__(self, field, value)
+        self._check_palette()
+        self._check_direction()
+
+    def _check_palette(self):
+        if self.noise_on and not self.palette:
             raise ValueError("noise needs a palette of at least one colour")
         if self.palette_weights and len(self.palette_weights) != len(self.palette):
             raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
-        check_value("image size", self.image_size, *IMAGE_SIZES)
-        self._check_direction()
+        if (self.noise_on or self.strokes > 0) and self.palette_weights and not any(self.palette_weights):
+            raise ValueError("the palette's weights are all 0, so no colour could be drawn: give at least one "
+                             "colour a weight above 0")
 
     def _check_direction(self):
-        if self.direction is not None and self.direction not in DIRECTIONS:
-            raise ValueError(f"direction must be one of {list(DIRECTIONS)}, got {self.direction!r}")
         if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes:
             raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)} and for "
                              f"brush strokes, not {self.mode!r} without strokes")
         if self.mode == "flow" and self.direction == "texture":
             raise ValueError("mode 'flow' draws along a direction field: direction must be one of "
                              f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")
-        try:
-            axis = tuple(float(a) for a in self.axis)
-        except (TypeError, ValueError):
-            axis = ()
-        if len(axis) != 3 or not all(math.isfinite(a) for a in axis) or not any(axis):
-            raise ValueError(f"axis must be three finite numbers, not all zero, got {self.axis!r}")
-        object.__setattr__(self, "axis", axis)
-        if not isinstance(self.attribute, str):
-            raise ValueError(f"attribute must be an attribute's name, got {self.attribute!r}")
 
     @property
     def noise_on(self):
@@ -180,7 +306,7 @@ class StylizeSettings:
         return {"mode": self.mode, "T": self.T, **self.params}
 
     def scaled(self, length):
-        """Absolute spacing and diffusion parameters for an object whose longest side is ``length``.
+        """Absolute spacing and diffusion parameters for an object whose diameter is ``length``.
 
         Lengths scale with ``length / 2`` and times with its square (paper, section 4.5).
         """
@@ -201,7 +327,7 @@ class StylizeSettings:
 
 def parse_hex(colour):
     """``"#rrggbb"`` to an (r, g, b) tuple of floats in [0, 1] (sRGB-encoded)."""
-    text = colour.strip().lstrip("#")
+    text = colour.strip().removeprefix("#") if isinstance(colour, str) else ""
     if len(text) != 6 or any(c not in "0123456789abcdefABCDEF" for c in text):
         raise ValueError(f"colour must be '#rrggbb', got {colour!r}")
     return tuple(int(text[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
@@ -211,108 +337,344 @@ def _hex(rgb):
     return "#" + "".join(f"{round(min(max(c, 0.0), 1.0) * 255):02x}" for c in rgb)
 
 
-#: The keys of a preset's [strokes] table, and the settings they set.
-_STROKE_KEYS = {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
-                "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"}
+# -- preset files ------------------------------------------------------------------------------------
+
+#: The preset file's fields: ``{table: {key: setting}}``, None for the top level (``[params]`` holds the
+#: filter parameters by name).
+_FILE = {
+    None: {"name": "name", "description": "description", "mode": "mode", "T": "T", "spacing": "spacing",
+           "detail": "detail", "direction": "direction", "axis": "axis", "attribute": "attribute",
+           "contours": "contours"},
+    "noise": {"fraction": "noise_fraction", "mapping": "noise_mapping", "spread": "noise_spread", "seed": "seed",
+              "fidelity": "fidelity", "palette": "palette"},
+    "strokes": {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
+                "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"},
+    "output": {"size": "image_size", "margin": "margin"},
+}
+_PALETTE_ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weight of at least 0)'
+
+
+def _palette_colour(value):
+    if isinstance(value, str):
+        return parse_hex(value)
+    return _colours("colour", [value])[0]
+
+
+def _palette_entry(entry):
+    """``(colour, weight)`` of one palette entry of a preset file; ValueError if it is none."""
+    if isinstance(entry, list) and len(entry) == 2 and not _real(entry[0]):
+        colour, weight = entry
+        if not _real(weight) or weight < 0:
+            raise ValueError(weight)
+        return _palette_colour(colour), float(weight)
+    return _palette_colour(entry), 1.0
+
+
+def _palette(label, entries):
+    """``(colours, weights, problems)`` of a preset file's palette."""
+    if not isinstance(entries, list):
+        return (), (), [f"{label} must be a list of colours, each {_PALETTE_ENTRY}, got {entries!r}"]
+    colours, weights, problems = [], [], []
+    for number, entry in enumerate(entries, 1):
+        try:
+            colour, weight = _palette_entry(entry)
+        except (ValueError, TypeError):
+            problems.append(f"{label} entry {number} must be {_PALETTE_ENTRY}, got {entry!r}")
+            continue
+        colours.append(colour)
+        weights.append(weight)
+    return tuple(colours), tuple(weights), problems
+
+
+def _fields(data):
+    """``(values, labels, problems)``: the settings a preset table gives, each setting's name in the file,
+    and what is wrong with its layout (unknown keys, a table that is not one)."""
+    values, labels, problems = {}, {}, []
+    unknown = sorted(k for k in data if k not in _FILE[None] and k not in _FILE and k != "params")
+    if unknown:
+        problems.append(f"unknown key(s) {unknown}; known: {[*_FILE[None], 'params', *filter(None, _FILE)]}")
+    for table, fields in _FILE.items():
+        given = data if table is None else data.get(table, {})
+        if not isinstance(given, dict):
+            problems.append(f"{table} must be a table ([{table}] with {', '.join(fields)}), got {given!r}")
+            continue
+        if table is not None:
+            unknown = sorted(k for k in given if k not in fields)
+            if unknown:
+                problems.append(f"unknown key(s) {unknown} in [{table}]; known: {', '.join(fields)}")
+        for key, field in fields.items():
+            if key in given:
+                values[field] = given[key]
+                labels[field] = key if table is None else f"[{table}] {key}"
+    return values, labels, problems
+
+
+def _file_params(data):
+    """``(params, problems)`` of a preset table's ``[params]``, each checked against its limits."""
+    given = data.get("params", {})
+    if not isinstance(given, dict):
+        return {}, [f"params must be a table ([params] with {', '.join(_PARAMS)}), got {given!r}"]
+    problems = []
+    unknown = sorted(k for k in given if k not in FILTER_PARAMETERS)
+    if unknown:
+        problems.append(f"unknown parameter(s) {unknown} in [params]; known: {list(_PARAMS)}")
+    params = {}
+    for name in given.keys() & FILTER_PARAMETERS.keys():
+        try:
+            params[name] = _parameter(FILTER_PARAMETERS[name])(f"[params] {name}", given[name])
+        except ValueError as err:
+            problems.append(str(err))
+    return params, problems
 
 
 def settings_from_dict(data, *, source="preset"):
-    """:class:`StylizeSettings` from a parsed preset table."""
-    known = {"name", "description", "mode", "T", "spacing", "detail", "direction", "axis", "attribute", "params", "noise",
-             "strokes", "output", "contours"}
-    unknown = set(data) - known
-    if unknown:
-        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}")
-    params = dict(data.get("params", {}))
-    bad = set(params) - set(_PARAMS)
-    if bad:
-        raise ValueError(f"{source}: unknown parameter(s) {sorted(bad)}; known: {list(_PARAMS)}")
-    noise = dict(data.get("noise", {}))
-    palette, weights = [], []
-    for entry in noise.get("palette", []):
-        colour, weight = (entry, 1.0) if isinstance(entry, str) else entry
-        palette.append(parse_hex(colour))
-        weights.append(float(weight))
-    output = dict(data.get("output", {}))
-    strokes = dict(data.get("strokes", {}))
-    unknown = set(strokes) - set(_STROKE_KEYS)
-    if unknown:
-        raise ValueError(f"{source}: unknown key(s) {sorted(unknown)} in [strokes]; known: {', '.join(_STROKE_KEYS)}")
+    """:class:`StylizeSettings` from a parsed preset table, checked as a whole.
+
+    Raises one ValueError that starts with ``source`` (the file) and names
+    every bad field as the file spells it (``[noise] seed``), what it must be
+    and what it is.
+    """
+    if not data:
+        raise ValueError(f"{source}: the preset is empty: it holds no settings")
+    values, labels, problems = _fields(data)
+    if "palette" in values:
+        values["palette"], values["palette_weights"], bad = _palette(labels["palette"], values["palette"])
+        problems += bad
+    params, bad = _file_params(data)
+    problems += bad
+    values, bad = _checked(values, labels)
+    problems += bad
+    if problems:
+        raise ValueError(f"{source}: " + "; ".join(problems))
     try:
-        return StylizeSettings(
-            mode=data.get("mode", "ced"), T=data.get("T", 1e-4), spacing=data.get("spacing", 0.01),
-            detail=data.get("detail", 1.0), strokes=strokes.get("strength", 0.0),
-            stroke_length=strokes.get("length", 0.1), stroke_width=strokes.get("width", 0.03),
-            stroke_layers=strokes.get("layers", 3), stroke_jitter=strokes.get("jitter", 0.3),
-            swirl=strokes.get("swirl", 0.0), relief=strokes.get("relief", 0.0),
-            fidelity=noise.get("fidelity", 0.0), contours=data.get("contours", 0.0),
-            noise_fraction=float(noise.get("fraction", 0.0)), palette=tuple(palette),
-            noise_mapping=noise.get("mapping", "random"), noise_spread=noise.get("spread", 0.1),
-            palette_weights=tuple(weights), seed=int(noise.get("seed", 0)),
-            image_size=int(output.get("size", 1024)), margin=int(output.get("margin", 16)),
-            direction=data.get("direction"), axis=tuple(data.get("axis", (0.0, 0.0, 1.0))),
-            attribute=data.get("attribute", ""),
-            name=data.get("name", ""), description=data.get("description", ""), params=params)
+        return StylizeSettings(**values, params=params)
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from None
 
 
-def load_preset(name_or_path):
-    """Settings of a preset: a shipped preset's name (e.g. ``"starry_night"``) or a TOML file's path."""
-    path = name_or_path
-    if not os.path.isfile(path):
-        path = os.path.join(PRESET_DIR, f"{name_or_path}.toml")
-        if not os.path.isfile(path):
-            raise ValueError(f"no preset {name_or_path!r}; shipped presets: {sorted(builtin_presets())}")
-    with open(path, "rb") as f:
-        try:
+def load_preset(name_or_path, folders=()):
+    """Settings of a preset: its key (``"starry_night"``, see :func:`find_preset`) or a TOML file's path.
+
+    ``folders``: the user's preset folders, looked in after the shipped presets.
+    Raises ValueError naming the file for a preset that cannot be read or
+    holds a bad field.
+    """
+    path = find_preset(name_or_path, folders)
+    try:
+        with open(path, "rb") as f:
             data = tomllib.load(f)
-        except tomllib.TOMLDecodeError as err:
-            raise ValueError(f"{path}: not valid TOML: {err}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path}: not valid TOML: {err}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not valid TOML: a preset is a text file in UTF-8") from None
+    except OSError as err:
+        raise ValueError(f"{path}: the preset could not be read ({err.strerror or err})") from None
     return settings_from_dict(data, source=path)
 
 
 def builtin_presets():
-    """Shipped presets: ``{name: path}`` sorted by name."""
+    """Shipped presets: ``{key: path}`` sorted by key."""
     if not os.path.isdir(PRESET_DIR):
         return {}
     return {f[:-5]: os.path.join(PRESET_DIR, f) for f in sorted(os.listdir(PRESET_DIR)) if f.endswith(".toml")}
 
 
+def _folder_presets(folder):
+    """``{key: path}`` of the preset files in ``folder`` (none if it cannot be read)."""
+    try:
+        names = sorted(os.listdir(folder)) if folder and os.path.isdir(folder) else []
+    except OSError:
+        names = []
+    return {f[:-5]: os.path.join(folder, f) for f in names
+            if f.endswith(".toml") and os.path.isfile(os.path.join(folder, f))}
+
+
+def preset_paths(folders=()):
+    """Every preset: ``{key: path}``, the shipped ones first, then those in the user's ``folders``.
+
+    Keys are unique and always mean the same file: a user's file whose key a
+    shipped preset (or an earlier folder) already has is listed under its
+    path, which :func:`find_preset` takes as well.
+    """
+    found = dict(builtin_presets())
+    for folder in folders:
+        for key, path in _folder_presets(folder).items():
+            found[key if key not in found else path] = path
+    return found
+
+
+def find_preset(name, folders=()):
+    """The file of preset ``name``: a preset file's path, or a key of :func:`preset_paths`."""
+    if isinstance(name, (str, os.PathLike)) and os.path.isfile(name):
+        return os.fspath(name)
+    paths = preset_paths(folders)
+    if isinstance(name, str) and name in paths:
+        return paths[name]
+    raise ValueError(f"no preset {name!r}; presets: {sorted(k for k in paths if not os.path.isabs(k))}")
+
+
+_labels = {}
+
+
+def preset_label(path):
+    """What a menu shows for the preset file ``path``: its ``name``, else its key made readable."""
+    try:
+        stamp = os.stat(path).st_mtime_ns
+    except OSError:
+        stamp = None
+    if _labels.get(path, (None,))[0] != stamp or stamp is None:
+        try:
+            with open(path, "rb") as f:
+                name = tomllib.load(f).get("name")
+        except (OSError, ValueError):
+            name = None
+        if not isinstance(name, str) or not name.strip():
+            name = os.path.basename(path)[:-5].replace("_", " ").strip().title()
+        _labels[path] = (stamp, name)
+    return _labels[path][1]
+
+
+def preset_menu(folders=()):
+    """``[(key, label)]`` of every preset (:func:`preset_paths`), the shipped ones first; a label that an
+    earlier entry has is followed by the file's name, so that no two entries look alike."""
+    entries, seen = [], set()
+    for key, path in preset_paths(folders).items():
+        label = preset_label(path)
+        if label.casefold() in seen:
+            label = f"{label} ({os.path.basename(path)})"
+        seen.add(label.casefold())
+        entries.append((key, label))
+    return entries
+
+
+#: File names that Windows reserves, whatever their extension.
+_RESERVED = {"con", "prn", "aux", "nul", *(f"com{i}" for i in range(1, 10)), *(f"lpt{i}" for i in range(1, 10))}
+#: The longest key, in bytes of UTF-8 (file names hold 255).
+_KEY_BYTES = 120
+
+
+def preset_key(name):
+    """The key a preset named ``name`` is saved under (its file name without ``.toml``): its letters and
+    digits in lower case, ``_`` between them for every other character, at most 120 bytes of UTF-8; ``""``
+    for a name without a letter or a digit."""
+    key = "".join(c if c.isalnum() else "_" for c in name.strip().casefold()).strip("_")
+    key = key.encode("utf-8")[:_KEY_BYTES].decode("utf-8", "ignore")
+    return key + "_" if key in _RESERVED else key
+
+
+def _write_atomically(path, text):
+    """Write ``text`` to ``path`` so that a failed write leaves whatever was there as it was."""
+    handle, temporary = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".saving_", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.remove(temporary)
+        raise
+
+
+def save_user_preset(settings, folder, name):
+    """Save ``settings`` as the user's preset ``name`` in ``folder``; returns ``(key, path, replaced)``.
+
+    Saving never overwrites another preset: the user's preset of the same
+    name is replaced (``replaced`` is True), a name whose key another file
+    has takes the first free key (``wood_grain_2``), and the name of a
+    shipped preset is refused, so that one name never shows two presets.
+    Raises ValueError with the reason (no name, too long, taken, the folder
+    cannot be written).
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError("a preset needs a name")
+    name = name.strip()
+    if len(name) > NAME_LENGTH:
+        raise ValueError(f"a preset's name may be {NAME_LENGTH} characters long, and this one has {len(name)}: "
+                         "choose a shorter name")
+    key = preset_key(name)
+    if not key:
+        raise ValueError(f"a preset's name needs a letter or a digit, got {name!r}")
+    shipped = builtin_presets()
+    if any(preset_label(path).casefold() == name.casefold() for path in shipped.values()):
+        raise ValueError(f"{name!r} is the name of a shipped preset: choose another name")
+    own = _folder_presets(folder)
+    same = next((k for k, path in own.items() if preset_label(path) == name), None)
+    if same is None:
+        number, base = 1, key
+        while key in own or key in shipped:
+            number += 1
+            key = f"{base}_{number}"
+    else:
+        key = same
+    path = os.path.join(folder, key + ".toml")
+    try:
+        os.makedirs(folder, exist_ok=True)
+        _write_atomically(path, preset_text(settings.replace(name=name)))
+    except OSError as err:
+        raise ValueError(f"could not save the preset {name!r} as {path!r}: {err.strerror or err}") from None
+    return key, path, same is not None
+
+
+def remove_user_preset(name, folder):
+    """Remove the user's preset ``name`` (a key of :func:`preset_paths`, or its path) from ``folder``."""
+    if isinstance(name, str) and name in builtin_presets():
+        raise ValueError(f"{name!r} is a shipped preset, not a user preset: it cannot be removed")
+    path = preset_paths([folder]).get(name) if isinstance(name, str) else None
+    if path is None and isinstance(name, str) and os.path.isabs(name) and os.path.isfile(name):
+        path = name
+    if path is None or os.path.dirname(os.path.abspath(path)) != os.path.abspath(folder):
+        raise ValueError(f"{name!r} is not a user preset")
+    try:
+        os.remove(path)
+    except OSError as err:
+        raise ValueError(f"could not remove the preset file {path!r}: {err.strerror or err}") from None
+    return path
+
+
 def _toml_value(v):
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        escaped = v.replace("\\", "\\\\").replace('"', '\\"')
+        escaped = "".join(c if c.isprintable() else f"\\U{ord(c):08x}" for c in escaped)
+        return f'"{escaped}"'
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
-def save_preset(settings, path):
-    """Write ``settings`` as a preset TOML file that :func:`load_preset` reads back."""
+def _colour_value(rgb):
+    """A palette colour as the file writes it: ``"#rrggbb"`` where that is exact, else ``[r, g, b]``."""
+    text = _hex(rgb)
+    if all(abs(a - b) < 1e-6 for a, b in zip(parse_hex(text), rgb)):
+        return f'"{text}"'
+    return "[" + ", ".join(_toml_value(float(c)) for c in rgb) + "]"
+
+
+def preset_text(settings):
+    """The TOML text of a preset file holding every field of ``settings``."""
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
              f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
              f"spacing = {_toml_value(float(settings.spacing))}", f"detail = {_toml_value(float(settings.detail))}"]
-    if settings.contours > 0:
-        lines.append(f"contours = {_toml_value(float(settings.contours))}")
+    lines.append(f"contours = {_toml_value(float(settings.contours))}")
     if settings.direction is not None:
         lines.append(f"direction = {_toml_value(settings.direction)}")
-    if settings.axis != (0.0, 0.0, 1.0):
-        lines.append(f"axis = [{', '.join(_toml_value(a) for a in settings.axis)}]")
-    if settings.attribute:
-        lines.append(f"attribute = {_toml_value(settings.attribute)}")
+    lines.append(f"axis = [{', '.join(_toml_value(float(a)) for a in settings.axis)}]")
+    lines.append(f"attribute = {_toml_value(settings.attribute)}")
     lines += ["", "[params]"]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in settings.params.items()]
-    if settings.noise_on:
-        lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
-                  f"mapping = {_toml_value(settings.noise_mapping)}",
-                  f"spread = {_toml_value(float(settings.noise_spread))}",
-                  f"fidelity = {_toml_value(float(settings.fidelity))}",
-                  f"seed = {int(settings.seed)}", "palette = ["]
-        weights = settings.palette_weights or (1.0,) * len(settings.palette)
-        lines += [f'  ["{_hex(c)}", {_toml_value(float(w))}],' for c, w in zip(settings.palette, weights)]
-        lines += ["]"]
-    if settings.strokes > 0:
-        lines += ["", "[strokes]"] + [f"{key} = {_toml_value(getattr(settings, name))}"
-                                      for key, name in _STROKE_KEYS.items()]
+    lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
+              f"mapping = {_toml_value(settings.noise_mapping)}",
+              f"spread = {_toml_value(float(settings.noise_spread))}", f"fidelity = {_toml_value(float(settings.fidelity))}",
+              f"seed = {int(settings.seed)}", "palette = ["]
+    weights = settings.palette_weights or (1.0,) * len(settings.palette)
+    lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
+    lines += ["]", "", "[strokes]"] + [f"{key} = {_toml_value(getattr(settings, field))}"
+                                      for key, field in _FILE["strokes"].items()]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines))
+    return "\n".join(lines)
+
+
+def save_preset(settings, path):
+    """Write ``settings`` as a preset TOML file that :func:`load_preset` reads back as they were.
+
+    A failed write leaves the file that was at ``path`` as it was.
+    """
+    _write_atomically(os.fspath(path), preset_text(settings))
     return path

@@ -7,7 +7,7 @@ that its peak memory is its own):
    the paper's Fig. 4 parameters, h = 0.0125, 30 steps;
 2. ``suzanne``: the paper's Starry Night recipe (:data:`cp_stylize_dev.paper.STARRY_NIGHT`)
    on Suzanne with two subdivision levels (the demo's textured object, read through Blender's Python module),
-   normalised to length 2, h = 0.008, RGB, a 1024 x 1024 atlas.
+   normalised to a diameter of 2, h = 0.008, RGB, a 1024 x 1024 atlas.
 
 For each it reports band points, the seconds of each stage (closest points
 and band with E, and of that E alone; the Laplacian L; bake-in; diffusion;
@@ -18,7 +18,7 @@ the time of one closest point extension of the state, ``band.extend`` on
 method can skip.  A table of single heat steps on the unit sphere follows.
 
 Then the scale cases, fast scheme only, each in a process of its own, with
-the demo's Suzanne at several subdivision levels (normalised to length 2,
+the demo's Suzanne at several subdivision levels (normalised to a diameter of 2,
 h = 0.008 unless said):
 
 - ``starry``: subdivision 2 (the demo's object), the Starry Night preset with
@@ -213,7 +213,8 @@ def run_scale(case, data, base=None):
     vertices, faces, uvs, colours = _scale_inputs(case, data)
     settings = load_preset(spec["preset"]).replace(spacing=spec["h"], image_size=spec["size"])
     cache = RunCache() if case == "rerun" else None
-    guess = estimate(vertices, faces, settings, keep=cache is not None, unwrap=uvs is None)
+    guess = estimate(vertices, faces, settings, keep=cache is not None, unwrap=uvs is None,
+                     image_pixels=colours.image_pixels)
     start = time.perf_counter()
     result = stylize(vertices, faces, colours, settings, uvs=uvs, cache=cache)
     figures = {"case": case, "triangles": int(len(faces)), "points": int(result.band_size),

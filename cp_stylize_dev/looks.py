@@ -1,6 +1,6 @@
 """What a look delivers, measured: the photo sphere and the figures of each preset's promise.
 
-- :func:`photo_sphere`: a UV sphere (longest side 2) wearing an equirectangular
+- :func:`photo_sphere`: a UV sphere (diameter 2) wearing an equirectangular
   photograph through its own UVs, as plain arrays;
 - :func:`psnr`, :func:`edge_sharpness`: a denoiser against the clean picture;
 - :func:`edge_survival`, :func:`hue_difference`, :func:`speckle`,

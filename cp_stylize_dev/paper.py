@@ -192,7 +192,7 @@ def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
 
 
 def fig_flow_mesh(out_dir, vertices, faces, h=0.008, log=print, scheme="fast", name="suzanne", size=440):
-    """The flow texture along both principal directions of a triangle mesh (normalised to length 2)."""
+    """The flow texture along both principal directions of a triangle mesh (normalised to a diameter of 2)."""
     from cp_stylize.mesh import TriangleMesh
     from cp_stylize.pipeline import CURVATURE_SMOOTHING, normalisation
 

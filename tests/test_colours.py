@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from cp_stylize.colours import TOLERANCE, ColourHull
+from cp_stylize.colours import TOLERANCE, ColourHull, distinct_colours
 
 
 def _excess(points, colours):
@@ -47,3 +47,19 @@ def test_one_colour_and_bad_input():
         ColourHull(np.zeros(3))
     with pytest.raises(ValueError, match="no finite colour"):
         ColourHull([[np.nan, 0, 0]])
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_an_images_distinct_colours_have_the_hull_of_its_pixels(channels, monkeypatch):
+    from cp_stylize import colours
+
+    rng = np.random.default_rng(3)
+    image = rng.random((300, 200, channels)).astype(np.float32) * 0.8 + 0.1
+    image[5, 7] = np.nan                                     # not a colour: left out, as the hull leaves it out
+    pixels = image.reshape(-1, channels)
+    expected = np.unique(np.clip(np.round(pixels[np.isfinite(pixels).all(axis=1)] * 255), 0, 255), axis=0)
+    monkeypatch.setattr(colours, "_PIXELS", 7919)              # rounded in many chunks, as a large image is
+    distinct = distinct_colours(image)
+    np.testing.assert_array_equal(np.unique(distinct * 255, axis=0), expected)
+    values = rng.random((5000, channels)).astype(np.float32)
+    np.testing.assert_array_equal(ColourHull(distinct).limit(values), ColourHull(pixels).limit(values))

@@ -33,7 +33,7 @@ def test_textures_on_some_faces_and_flat_colour_on_the_rest(torus_mesh):
     settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05, image_size=128)
     result = stylize(vertices, faces, colours, settings, uvs=uvs)
     assert result.image.shape == (128, 128, 3) and not result.atlas.generated
-    assert result.spacing == pytest.approx(0.05 * 28.0 / 2)  # in the mesh's own units (longest side 28)
+    assert result.spacing == pytest.approx(0.05 * 28.0 / 2)  # in the mesh's own units (diameter 28)
     img = result.image
     # the UV layout: s < 1/2 holds the textured faces; the surface joins s = 1 to s = 0 and
     # s = 1/2 to the stripes, so only the middle of the green half stays pure green
@@ -79,12 +79,77 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     assert estimate_run(100_000, kept, keep=True)[1] > estimate_run(100_000, kept)[1] + 2**28
     assert estimate_run(100_000, big_settings := ced.replace(image_size=4096), keep=True) == estimate_run(
         100_000, big_settings)
+    # the input images cost by the pixel: an 8192 x 8192 texture, read out and held, is 2 GiB and seconds more
+    photo = estimate_run(100_000, ced, image_pixels=8192**2)
+    assert photo[0] > s1 + 5 and photo[1] >= b1 + 2 * 2**30
 
 
-def test_a_flat_mesh_is_reported():
+def test_the_estimate_counts_the_input_images(torus_mesh):
+    from cp_stylize.pipeline import estimate
+
+    vertices, faces, uvs = torus_mesh
+    colours = ColourInput(textures=[(np.zeros((2048, 1024, 3), np.float32), uvs, np.ones(len(faces), bool)),
+                                    (np.zeros((64, 64), np.float32), uvs, np.ones(len(faces), bool))])
+    assert colours.image_pixels == 2048 * 1024 + 64 * 64
     settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
-    with pytest.raises(ValueError, match="no extent"):
-        stylize(np.zeros((3, 3)), np.array([[0, 1, 2]]), ColourInput.constant(1, (1, 1, 1)), settings)
+    plain = estimate(vertices, faces, settings, speed=1.0)
+    read = estimate(vertices, faces, settings, image_pixels=colours.image_pixels, speed=1.0)
+    assert read.bytes - plain.bytes == 32 * colours.image_pixels and read.seconds > plain.seconds
+    assert estimate(vertices, faces, settings, speed=2.0).seconds == pytest.approx(2 * plain.seconds)
+
+
+@pytest.mark.parametrize("vertices", [np.zeros((3, 3)), [[0, 0, 0], [1, 1, 1], [2, 2, 2]]])
+def test_a_mesh_without_surface_is_reported(vertices):
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05)
+    with pytest.raises(ValueError) as info:
+        stylize(np.asarray(vertices, float), np.array([[0, 1, 2]]), ColourInput.constant(1, (1, 1, 1)), settings)
+    assert str(info.value) == ("the mesh has no surface: the corners of each of its 1 face(s) lie on a line or at "
+                               "one point")
+
+
+def _box():
+    """A box 4 x 2 x 1 (its diameter the space diagonal, sqrt(21)) as 12 triangles."""
+    corners = np.array([[x, y, z] for x in (-2, 2) for y in (-1, 1) for z in (-0.5, 0.5)], float)
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return corners, faces
+
+
+def test_the_scale_is_the_surfaces_diameter_and_does_not_change_when_the_mesh_is_turned():
+    from scipy.spatial.transform import Rotation
+
+    from cp_stylize import Sphere
+    from cp_stylize.pipeline import normalisation
+
+    box, box_faces = _box()
+    assert normalisation(box, box_faces)[1] == pytest.approx(2 / np.sqrt(21), rel=1e-12)
+    sphere, sphere_faces, _ = parametric_mesh(Sphere(3.0).point, 64, 32, periodic_u=True)
+    assert normalisation(sphere, sphere_faces)[1] == pytest.approx(1 / 3, rel=1e-12)   # a sphere: radius 1
+    for seed in range(5):
+        turn = Rotation.random(random_state=seed).as_matrix()
+        for vertices, faces in ((box, box_faces), (sphere, sphere_faces)):
+            scale = normalisation(vertices, faces)[1]
+            assert normalisation(vertices @ turn.T + 5.0, faces)[1] == pytest.approx(scale, rel=1e-5)
+
+
+def test_a_face_without_area_far_away_changes_nothing(torus_mesh):
+    from cp_stylize.pipeline import estimate, normalisation
+
+    vertices, faces, uvs = torus_mesh
+    far = np.vstack([vertices, [[100.0, 0, 0], [101.0, 0, 0], [102.0, 0, 0]]])      # three corners on a line
+    stray = np.vstack([faces, [len(vertices), len(vertices) + 1, len(vertices) + 2]])
+    (centre, scale), (centre_far, scale_far) = normalisation(vertices, faces), normalisation(far, stray)
+    assert scale_far == scale and np.array_equal(centre_far, centre)
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.05, image_size=64)
+    guess, guess_far = estimate(vertices, faces, settings), estimate(far, stray, settings)
+    assert (guess_far.spacing, guess_far.band_points) == (guess.spacing, guess.band_points)
+    colours = ColourInput.constant(len(stray), (0.0, 1.0, 0.0))
+    colours.textures.append((_stripes(), np.vstack([uvs, np.zeros((1, 3, 2))]), np.ones(len(stray), bool)))
+    with_stray = stylize(far, stray, colours, settings, uvs=np.vstack([uvs, np.full((1, 3, 2), 0.5)]))
+    without = stylize(vertices, faces, ColourInput(textures=[(_stripes(), uvs, np.ones(len(faces), bool))]),
+                      settings, uvs=uvs)
+    assert with_stray.band_size == without.band_size and with_stray.spacing == pytest.approx(without.spacing)
+    assert with_stray.image.std() > 0.3            # the stripes stay
 
 
 def test_the_flow_mode_follows_the_minimum_curvature_of_the_mesh(torus_mesh):
@@ -93,7 +158,7 @@ def test_the_flow_mode_follows_the_minimum_curvature_of_the_mesh(torus_mesh):
 
     vertices, faces, uvs = torus_mesh
     settings = StylizeSettings(mode="flow", T=2e-3, spacing=0.05, image_size=64)
-    band = Band.build(TriangleMesh(vertices / 14.0, faces), 0.05, stencil="anisotropic")   # longest side 2
+    band = Band.build(TriangleMesh(vertices / 14.0, faces), 0.05, stencil="anisotropic")   # diameter 2
     field = stroke_field(band, settings)
     x, y, _ = band.cp.T
     parallels = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]

@@ -10,7 +10,8 @@ levels, run through :func:`cp_stylize.pipeline.stylize` with the preset at the
 given atlas size and grid spacing, in a process of its own so that its peak
 memory is its own.  Prints a Markdown table of the measured wall time and peak
 resident memory beside :func:`cp_stylize.pipeline.estimate`'s figures, which the
-add-on uses to refuse runs above its limits.
+add-on uses to refuse runs above its limits; the time estimate is scaled by this
+computer's factor (``x``, :mod:`cp_stylize.calibration`).
 """
 
 from __future__ import annotations
@@ -49,14 +50,16 @@ def run_case(path, size, spacing, preset):
     arrays = np.load(path)
     colours = ColourInput(textures=[Texture(arrays["image"], arrays["uvs"], np.ones(len(arrays["faces"]), bool))])
     settings = load_preset(preset).replace(spacing=spacing, image_size=size)
-    guess = estimate(arrays["vertices"], arrays["faces"], settings)
+    guess = estimate(arrays["vertices"], arrays["faces"], settings, image_pixels=colours.image_pixels)
     start = time.perf_counter()
     result = stylize(arrays["vertices"], arrays["faces"], colours, settings, uvs=arrays["uvs"])
     seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    from cp_stylize.calibration import machine_speed
+
     return {"triangles": len(arrays["faces"]), "points": result.band_size, "seconds": seconds,
             "peak": peak, "est_seconds": guess.seconds, "est_bytes": guess.bytes,
-            "timings": result.timings}
+            "timings": result.timings, "speed": machine_speed()}
 
 
 def main(argv=None):
@@ -84,7 +87,8 @@ def main(argv=None):
                 raise RuntimeError(f"case {level}:{size}:{spacing} failed:\n{done.stderr}")
             r = json.loads(done.stdout.strip().splitlines()[-1])
             print(f"| subdivision {level}, {size}², h = {spacing} | {r['triangles']:,} | {r['points']:,} "
-                  f"| {r['seconds']:.1f} s | {r['est_seconds']:.1f} s ({100 * (r['est_seconds'] / r['seconds'] - 1):+.0f} %) "
+                  f"| {r['seconds']:.1f} s | {r['est_seconds']:.1f} s ({100 * (r['est_seconds'] / r['seconds'] - 1):+.0f} %, "
+                  f"x {r['speed']:.2f}) "
                   f"| {r['peak'] / gib:.2f} GiB | {r['est_bytes'] / gib:.2f} GiB "
                   f"({100 * (r['est_bytes'] / r['peak'] - 1):+.0f} %) |", flush=True)
     return 0

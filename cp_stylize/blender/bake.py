@@ -9,6 +9,10 @@ the temporary target image as its active node.  The render engine, samples,
 selection and, where the mesh has no usable UV map, a temporary UV map are
 set for the bake.  All of it is undone afterwards, whether the bake worked or
 not: the user's materials, images and meshes are never written to.
+
+What the bake sees is what the renderer shows: on a mesh without UV maps,
+nodes that read UV coordinates see zeros (a temporary all-zero UV map is the
+render UV map during the bake), not the atlas the bake is laid out on.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from .materials import material_output
 
 #: Name of the temporary UV map a bake may need (removed afterwards).
 BAKE_UV_NAME = "cp_stylize bake"
+#: Name of the temporary all-zero render UV map a bake needs on a mesh without UV maps (removed afterwards).
+ZERO_UV_NAME = "cp_stylize no UVs"
 #: Largest bake image, in texels a side.
 MAX_SIZE = 2048
 
@@ -66,22 +72,107 @@ def _emitting_copy(changes, material, socket, image):
     return copy
 
 
+def _collections_of(obj, layer_collection, path=()):
+    """The chains of layer collections, from the view layer's root, that hold ``obj``."""
+    path = path + (layer_collection,)
+    if obj.name in layer_collection.collection.objects:
+        yield path
+    for child in layer_collection.children:
+        yield from _collections_of(obj, child, path)
+
+
+def _hidden_by_collection(obj, layer):
+    """What keeps ``obj`` out of the view layer's viewport or renders by way of a collection: a message, or None."""
+    chains = list(_collections_of(obj, layer.layer_collection))
+    if not chains:
+        return None
+    checks = (
+        (lambda lc: lc.exclude, "is excluded from the view layer: include it (the checkbox next to it in the Outliner)"),
+        (lambda lc: lc.collection.hide_viewport, "is disabled in viewports: enable it (the monitor icon next to it in "
+                                                 "the Outliner)"),
+        (lambda lc: lc.hide_viewport, "is hidden: show it (the eye icon next to it in the Outliner)"),
+        (lambda lc: lc.collection.hide_render, "is disabled in renders: enable it (the camera icon next to it in the "
+                                               "Outliner)"),
+        (lambda lc: lc.collection.hide_select, "cannot be selected: make it selectable (the arrow icon next to it in "
+                                               "the Outliner)"),
+        (lambda lc: lc.holdout, "is a holdout, which Cycles bakes black: turn its Holdout off in the Outliner"),
+    )
+    for test, what in checks:
+        # a collection matters only if every chain that holds the object passes through one that fails the test
+        blocking = [next((lc for lc in chain[1:] if test(lc)), None) for chain in chains]
+        if all(lc is not None for lc in blocking):
+            return f"its collection {blocking[0].name!r} {what}"
+    return None
+
+
 def check_bakeable(obj):
-    """Raise StylizeError if Cycles cannot bake ``obj`` now."""
+    """Raise StylizeError if Cycles cannot bake ``obj`` now, saying what to change."""
     scene = bpy.context.scene
     if "cycles" not in bpy.context.preferences.addons or not hasattr(scene, "cycles"):
         raise StylizeError("procedural colours are baked with Cycles, which is disabled: enable it in "
                            "Preferences > Add-ons")
+    layer = bpy.context.view_layer
+    so = "so that its procedural colours can be baked"
+    if obj.name not in layer.objects:
+        why = _hidden_by_collection(obj, layer)
+        raise StylizeError(f"{obj.name!r} is not in the view layer {layer.name!r}" + (f": {why} {so}" if why else
+                           f"; its procedural colours can be baked only there: link it to a collection of the "
+                           f"view layer {layer.name!r}"))
+    why = _hidden_by_collection(obj, layer)
+    if why is not None:
+        raise StylizeError(f"{obj.name!r} cannot be baked: {why} {so}")
+    if obj.hide_viewport:
+        raise StylizeError(f"{obj.name!r} is disabled in viewports: enable it (the monitor icon in the Outliner, or "
+                           f"Object properties > Visibility > Show in Viewports) {so}")
+    if obj.hide_get():
+        raise StylizeError(f"{obj.name!r} is hidden: show it (Alt+H) {so}")
+    if obj.hide_render:
+        raise StylizeError(f"{obj.name!r} is disabled in renders: enable it (the camera icon in the Outliner, or "
+                           f"Object properties > Visibility > Show in Renders) {so}")
+    if obj.hide_select:
+        raise StylizeError(f"{obj.name!r} cannot be selected, and Cycles bakes only selected objects: make it "
+                           f"selectable (the arrow icon in the Outliner, or Object properties > Visibility > "
+                           f"Selectable) {so}")
+    if obj.is_holdout:
+        raise StylizeError(f"{obj.name!r} is a holdout, which Cycles bakes black: turn Holdout off (Object "
+                           f"properties > Visibility > Holdout) {so}")
     if not obj.visible_get():
-        raise StylizeError(f"{obj.name!r} is hidden: show it (Alt+H) so that its procedural colours can be baked")
+        raise StylizeError(f"{obj.name!r} is not visible in the view layer {layer.name!r}: show it {so}")
+
+
+def _temporary_uv_maps(obj, uvs, loops, changes):
+    """Write ``uvs`` (F, 3, 2) at the triangle corners ``loops`` into a temporary UV map; returns its name.
+
+    On a mesh without UV maps, an all-zero map comes first: it is the render
+    UV map while the bake runs, so that nodes reading UVs see what the renderer
+    shows for a mesh without them (zeros), not the bake's atlas.
+    """
+    mesh = obj.data
+    if not mesh.uv_layers:
+        zero = changes.new_uv_map(mesh, ZERO_UV_NAME)
+        zero.data.foreach_set("uv", np.zeros(2 * len(mesh.loops), dtype=np.float32))
+        zero.active_render = True
+    layer = changes.new_uv_map(mesh, BAKE_UV_NAME)
+    if layer is None:
+        raise StylizeError(f"the mesh of {obj.name!r} has {len(mesh.uv_layers)} UV maps, Blender's limit, and the "
+                           "bake of its procedural colours needs one more: remove a UV map it does not need "
+                           "(Object Data properties > UV Maps) and press Stylize again")
+    name = layer.name
+    written = meshdata.write_corner_uvs(layer, loops, uvs)
+    meshdata.check_written_uvs(obj, name, written)
+    return name
 
 
 def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
-    """Emitted colours of the output ``sockets`` ``{slot index: socket}`` baked on ``obj``: (size, size, 3) sRGB.
+    """Colours of output sockets baked on ``obj``: (size, size, 3) sRGB.
+
+    ``sockets`` maps slot indices to ``(material, output socket of its node
+    tree)``: the colour each slot's faces bake.
 
     The bake reads through the UV map ``uv_name``, or through per-corner
     ``uvs`` (F, 3, 2) at the mesh's triangle corners ``loops`` (F, 3), written
-    into a temporary UV map.  Faces of other slots bake black.
+    into a temporary UV map.  Faces of other slots bake black.  Raises
+    StylizeError if Cycles cannot bake the object, with Cycles's reason.
     """
     from ..texture import linear_to_srgb
 
@@ -97,17 +188,14 @@ def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
         for index, slot in enumerate(obj.material_slots):
             material = slot.material
             if index in sockets:
-                temp = _emitting_copy(changes, material, sockets[index], image)
+                temp = _emitting_copy(changes, *sockets[index], image)
             else:
                 blank = blank or _blank_material(changes, image)
                 temp = blank
             changes.set(slot, "link", "OBJECT")
             changes.set(slot, "material", temp)
         if uvs is not None:
-            mesh = obj.data
-            uv = changes.new_id(mesh.uv_layers, mesh.uv_layers.new(name=BAKE_UV_NAME, do_init=False))
-            meshdata.write_corner_uvs(uv, loops, uvs)
-            uv_name = uv.name
+            uv_name = _temporary_uv_maps(obj, uvs, loops, changes)
         changes.set(scene.render, "engine", "CYCLES")
         changes.set(scene.cycles, "device", "CPU")
         changes.set(scene.cycles, "samples", 1)
@@ -117,9 +205,13 @@ def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
                 other.select_set(other == obj)
                 changes.record(lambda o=other, s=selected: o.select_set(s))
         changes.set(layer.objects, "active", obj)
-        bpy.ops.object.bake(type="EMIT", margin=16, margin_type="EXTEND", use_clear=True,
-                            target="IMAGE_TEXTURES", save_mode="INTERNAL", use_selected_to_active=False,
-                            use_cage=False, use_split_materials=False, uv_layer=uv_name or "")
+        try:
+            bpy.ops.object.bake(type="EMIT", margin=16, margin_type="EXTEND", use_clear=True,
+                                target="IMAGE_TEXTURES", save_mode="INTERNAL", use_selected_to_active=False,
+                                use_cage=False, use_split_materials=False, uv_layer=uv_name or "")
+        except RuntimeError as err:
+            reason = str(err).strip().removeprefix("Error:").strip()
+            raise StylizeError(f"Cycles could not bake the procedural colours of {obj.name!r}: {reason}") from None
         baked = images.image_to_array(image)[..., :3]
     finally:
         changes.undo()

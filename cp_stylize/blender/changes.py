@@ -62,6 +62,17 @@ class Changes:
         self.record(lambda: collection.remove(block))
         return block
 
+    def new_uv_map(self, mesh, name):
+        """A new UV map ``name`` on ``mesh``, recorded for removal (by name: adding a UV map moves the others).
+
+        Returns None if the mesh has as many UV maps as Blender allows.
+        """
+        layer = mesh.uv_layers.new(name=name, do_init=False)
+        if layer is not None:
+            added = layer.name
+            self.record(lambda: mesh.uv_layers.remove(mesh.uv_layers[added]) if added in mesh.uv_layers else None)
+        return layer
+
     def new_file(self, path):
         """Record a file this run wrote, for removal."""
         self.record(lambda: os.path.exists(path) and os.remove(path))

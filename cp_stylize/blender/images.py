@@ -46,29 +46,44 @@ def check_readable(image):
         raise StylizeError(f"image {image.name!r} is tiled (UDIM), which is not supported")
     if image.source not in ("FILE", "GENERATED"):
         raise StylizeError(f"image {image.name!r} has source {image.source}; use a still image")
+    path = None
     if image.source == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
             raise StylizeError(f"image {image.name!r}: its file {path!r} is missing")
     if image.size[0] == 0 or image.size[1] == 0:
+        if path is not None:
+            raise StylizeError(f"image {image.name!r}: its file {path!r} could not be read (it is damaged, or not an "
+                               "image Blender can open): replace the file, or choose another image")
+        if image.packed_file is not None:
+            raise StylizeError(f"image {image.name!r}: its packed file could not be read (it is damaged, or not an "
+                               "image Blender can open): replace it (Image > Replace), or choose another image")
         raise StylizeError(f"image {image.name!r} has no pixels")
+
+
+#: Rows of pixels checked and encoded at once: the image's own array is the only copy of its pixels.
+_ROWS = 256
 
 
 def display_colours(image, linear):
     """An image's RGB as display (sRGB-encoded) values (H, W, 3); ``linear``: its pixels are linear.
 
-    Raises StylizeError if pixels are not finite numbers.
+    Works in place on the one array of the image's pixels, a band of rows at a
+    time, so that reading an image costs its float RGBA pixels (16 bytes a
+    pixel) and little more.  Raises StylizeError if pixels are not finite numbers.
     """
     from ..texture import linear_to_srgb
 
     rgb = image_to_array(image)[..., :3]
-    bad = ~np.isfinite(rgb).all(axis=2)
-    if bad.any():
-        count = int(bad.sum())
+    count = 0
+    for start in range(0, rgb.shape[0], _ROWS):
+        rows = rgb[start:start + _ROWS]
+        count += int(np.count_nonzero(~np.isfinite(rows).all(axis=2)))
+        if linear and not count:
+            rows[...] = linear_to_srgb(np.clip(rows, 0.0, None))
+    if count:
         noun = "pixel that is not a finite number" if count == 1 else "pixels that are not finite numbers"
         raise StylizeError(f"image {image.name!r} has {count} {noun}")
-    if linear:
-        return linear_to_srgb(np.clip(rgb, 0.0, None)).astype(np.float32)
     return rgb
 
 

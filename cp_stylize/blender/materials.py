@@ -5,7 +5,9 @@ its Material Output: the Principled BSDF's Base Color, or the Color of a
 Diffuse, Emission or other shader (or of a node group with such an input).
 :func:`colour_input` finds that socket, or names the node that has none.
 
-:func:`colour_source` says how to read what feeds it, as the renderer does:
+:func:`colour_source` says how to read what feeds it, as the renderer does
+(through reroutes, and past muted nodes and links as the renderer leaves them
+out):
 
 - :class:`Flat`: nothing is linked, the socket's own colour;
 - :class:`ImageSource`: an Image Texture with flat projection, read through a
@@ -63,6 +65,7 @@ class ImageSource:
     uv_name: str | None      # None: the render UV map
     transform: tuple | None  # (A (2, 2), b (2,)) applied to the UVs
     wrap: str
+    mapping: str | None = None   # the name of the Mapping node that applies it
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,8 +78,8 @@ class BakeSource:
     socket: object           # the output socket whose colour Cycles bakes
 
 
-def _upstream(socket):
-    """The output socket feeding input ``socket``, through reroutes (None if nothing is linked)."""
+def _linked(socket):
+    """The output socket linked to input ``socket``, through reroutes (None if unlinked, or through a muted link)."""
     while socket.is_linked:
         link = socket.links[0]
         if not link.is_valid or link.is_muted:
@@ -85,6 +88,24 @@ def _upstream(socket):
             return link.from_socket
         socket = link.from_node.inputs[0]
     return None
+
+
+def _unmuted(output):
+    """What the renderer takes for ``output`` (None: the input that reads it keeps its own value).
+
+    The renderer leaves muted nodes out: a muted node passes on what feeds
+    the input its internal link joins to ``output``; where it has no such
+    link, or that input is unlinked, the reading input keeps its own value.
+    """
+    while output is not None and output.node.mute:
+        through = next((l.from_socket for l in output.node.internal_links if l.to_socket == output), None)
+        output = None if through is None else _linked(through)
+    return output
+
+
+def _upstream(socket):
+    """The output socket whose value input ``socket`` reads, as the renderer sees it (None: its own value)."""
+    return _unmuted(_linked(socket))
 
 
 def material_output(tree):
@@ -106,6 +127,10 @@ def colour_input(material):
         raise StylizeError(f"material {material.name!r} has no Material Output node")
     surface = _upstream(out.inputs["Surface"])
     if surface is None:
+        muted = getattr(_linked(out.inputs["Surface"]), "node", None)
+        if muted is not None:
+            raise StylizeError(f"material {material.name!r}: its surface comes from the muted node {muted.name!r} "
+                               f"({muted.bl_label}), so it renders no surface: unmute it (M in the Shader Editor)")
         raise StylizeError(f"material {material.name!r}: nothing is connected to its Material Output's Surface")
     shader = surface.node
     for name in ("Base Color", "Color"):
@@ -132,14 +157,19 @@ def _remembered(node):
     return socket is not None, socket
 
 
+def _ours(output):
+    """Whether ``output`` is the Color of the Image Texture node :data:`NODE` a run wired in."""
+    return output is not None and output.node.name == NODE and output.node.type == "TEX_IMAGE"
+
+
 def original_origin(socket):
     """The output socket whose colour ``socket`` shows, before any stylized image was wired in (None: unlinked)."""
-    origin = _upstream(socket)
-    if origin is not None and origin.node.name == NODE and origin.node.type == "TEX_IMAGE":
+    origin = _linked(socket)
+    if _ours(origin):
         found, remembered = _remembered(origin.node)
         if found:
-            return remembered
-    return origin
+            return _unmuted(remembered)
+    return _unmuted(origin)
 
 
 def _linear_to_srgb(rgb):
@@ -155,7 +185,7 @@ def _mapping_transform(node, material):
     kind = node.vector_type
     if kind not in ("POINT", "TEXTURE", "VECTOR"):
         return None
-    if any(s.is_linked for s in node.inputs[1:] if s.enabled):
+    if any(_upstream(s) is not None for s in node.inputs[1:] if s.enabled):
         return None
     scale = np.array(node.inputs["Scale"].default_value[:], dtype=np.float64)
     rotation = np.array(Euler(node.inputs["Rotation"].default_value[:], "XYZ").to_matrix(), dtype=np.float64)
@@ -180,9 +210,10 @@ def _image_source(output, material, uv_names, owner):
     if image.source in ("FILE", "GENERATED") and not (image.is_float or image.colorspace_settings.name
                                                       in SRGB_SPACES + LINEAR_SPACES):
         return None
-    transform, uv_name = None, None
+    transform, uv_name, mapping = None, None, None
     vector = _upstream(node.inputs["Vector"])
     if vector is not None and vector.node.type == "MAPPING":
+        mapping = vector.node.name
         transform = _mapping_transform(vector.node, material)
         vector = _upstream(vector.node.inputs["Vector"])
         if transform is None or vector is None:   # an unlinked Mapping input is a constant, not the UVs
@@ -198,7 +229,25 @@ def _image_source(output, material, uv_names, owner):
                   and not getattr(vector.node, "from_instancer", False)):
             return None
     return ImageSource(node=node, image=image, uv_name=uv_name, transform=transform,
-                       wrap=WRAPS.get(node.extension, "repeat"))
+                       wrap=WRAPS.get(node.extension, "repeat"), mapping=mapping)
+
+
+def source_material(material):
+    """The material whose colours a run on ``material`` reads.
+
+    ``material`` itself, except for a copy an earlier run made whose
+    :data:`NODE` no longer finds the node it replaced (deleted since): then
+    its original, which still has it, so that a run starts again from the
+    original colours rather than from the last result.
+    """
+    original = material.get(ORIGINAL)
+    if original is None or not uses_nodes(material):
+        return material
+    try:
+        origin = _linked(colour_input(material))
+    except StylizeError:
+        return material
+    return original if _ours(origin) and not _remembered(origin.node)[0] else material
 
 
 def colour_source(material, uv_names, owner):
@@ -233,18 +282,22 @@ def wire(material, image, uv_name, changes):
     The image goes into the Image Texture node :data:`NODE`, linked to the
     shader's colour input; a node from an earlier run is reused.  Nothing
     else in the material changes: the shader, and the nodes that fed the
-    colour before (now unlinked, remembered by the node).  Every change is
-    recorded in ``changes`` so that it can be undone.
+    colour before (now unlinked, remembered by the node).  A node of an
+    earlier run that the user muted is unmuted, so that the result shows.
+    Every change is recorded in ``changes`` so that it can be undone.
+    Returns the image the node showed before (None for a new node).
     """
     if not uses_nodes(material):
         changes.set(material, "use_nodes", True)
     tree = material.node_tree
     socket = colour_input(material)
-    current = _upstream(socket)
-    ours = current is not None and current.node.name == NODE and current.node.type == "TEX_IMAGE"
+    current = _linked(socket)
     shader = socket.node
-    if ours:
+    previous = None
+    if _ours(current):
         tex = current.node
+        previous = tex.image
+        changes.set(tex, "mute", False)
     else:
         tex = changes.new_node(tree, "ShaderNodeTexImage")
         tex.name = tex.label = NODE
@@ -261,8 +314,9 @@ def wire(material, image, uv_name, changes):
             uv.location = (tex.location.x - 250, tex.location.y)
             uv_linked = False
         changes.set(uv, "uv_map", uv_name)
+        changes.set(uv, "mute", False)
         if not uv_linked:
             changes.link(tree, uv.outputs["UV"], tex.inputs["Vector"])
     elif uv_linked:
         changes.unlink(tree, tex.inputs["Vector"].links[0])
-    return tex
+    return previous

@@ -13,21 +13,25 @@ from .errors import StylizeError
 
 @dataclasses.dataclass
 class MeshData:
-    """An object's evaluated mesh (modifiers applied), triangulated, in world space.
+    """An object's evaluated mesh (modifiers applied), triangulated, in world units without its rotation.
 
-    Per-corner arrays are indexed by triangle and corner: ``(F, 3, ...)``.
+    The vertices are the object's own stretched by its world matrix without
+    the matrix's rotation and translation (:func:`shape_frame`): scale, shear
+    and mirroring apply, the rotation (the object's and its parents') does
+    not, so a turned object gives the core the same vertices.  Per-corner
+    arrays are indexed by triangle and corner: ``(F, 3, ...)``.
     """
 
-    vertices: np.ndarray            # (V, 3) world space
+    vertices: np.ndarray            # (V, 3) world units, without the world matrix's rotation and translation
     triangles: np.ndarray           # (F, 3) vertex indices
     loops: np.ndarray               # (F, 3) loop (face corner) indices
     material_index: np.ndarray      # (F,)
-    same_topology: bool             # the evaluated mesh's corners are the original mesh's
+    same_topology: bool             # the evaluated mesh's faces and corners are the original mesh's, in order
     uv_maps: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 2)
     render_uv: str | None = None    # the UV map the renderer reads by default
     colours: dict = dataclasses.field(default_factory=dict)   # name -> (F, 3, 3) sRGB-encoded
     render_colour: str | None = None
-    directions: np.ndarray | None = None   # (F, 3, 3) world space: the vector attribute read, if asked for
+    directions: np.ndarray | None = None   # (F, 3, 3) as the vertices: the vector attribute read, if asked for
 
 
 def _get(collection, attr, count, dtype, width=1):
@@ -81,8 +85,7 @@ def read(obj, depsgraph=None, *, corners=True, vectors=None):
         tris = _get(mesh.loop_triangles, "vertices", n, np.int64, 3)
         verts = _get(mesh.vertices, "co", len(mesh.vertices), np.float64, 3)
         data = MeshData(vertices=verts, triangles=tris, loops=None, material_index=None,
-                        same_topology=(len(mesh.loops) == len(obj.data.loops)
-                                       and len(mesh.polygons) == len(obj.data.polygons)))
+                        same_topology=same_corners(mesh, obj.data))
         if corners:
             data.loops = _get(mesh.loop_triangles, "loops", n, np.int64, 3)
             data.material_index = _get(mesh.loop_triangles, "material_index", n, np.int64)
@@ -108,11 +111,87 @@ def read(obj, depsgraph=None, *, corners=True, vectors=None):
         count = int(bad.sum())
         noun = "vertex whose position is" if count == 1 else "vertices whose positions are"
         raise StylizeError(f"the mesh of {obj.name!r} has {count} {noun} not a finite number")
-    matrix = np.array(obj.matrix_world, dtype=np.float64)
-    data.vertices = verts @ matrix[:3, :3].T + matrix[:3, 3]
+    shape = shape_frame(obj.matrix_world)
+    data.vertices = verts @ shape.T
+    _check_surface(obj.name, verts, data.vertices, tris)
     if data.directions is not None:
-        data.directions = data.directions @ matrix[:3, :3].T   # tangent vectors move with the surface
+        data.directions = data.directions @ shape.T   # tangent vectors move with the surface
     return data
+
+
+def shape_frame(matrix):
+    """The stretch ``S`` (3, 3) of a world matrix: the matrix without its rotation and translation.
+
+    The polar decomposition ``A = U S`` of the matrix's linear part (``U``
+    orthogonal, ``S`` symmetric with no negative eigenvalue, from the SVD
+    ``A = W D V^T``: ``U = W V^T``, ``S = V D V^T``) splits it into a rotation
+    (with any mirroring) and a stretch: world positions are ``U S x + t``,
+    the shape ``S x`` turned and moved.  Blender keeps the matrix in single
+    precision, so ``S`` is rounded to 2^-20 of its largest entry: a turned
+    matrix's rounding then does not reach the mesh, and a turned object gives
+    the same vertices as the object unturned.
+    """
+    matrix = np.array(matrix, dtype=np.float64)[:3, :3]
+    _, d, vt = np.linalg.svd(matrix)
+    stretch = vt.T @ np.diag(d) @ vt
+    largest = np.abs(stretch).max()
+    if largest > 0:
+        step = 2.0 ** (np.floor(np.log2(largest)) - 20)
+        stretch = np.round(stretch / step) * step
+    return stretch
+
+
+def axis_in_frame(obj, axis):
+    """A stroke axis in ``obj``'s own space as the core sees it (:func:`shape_frame`), or StylizeError where
+    the object's scale flattens it to nothing."""
+    shape = shape_frame(obj.matrix_world)
+    axis = np.asarray(axis, dtype=np.float64)
+    moved = shape @ axis
+    if np.linalg.norm(moved) <= 1e-6 * np.linalg.norm(shape, 2) * np.linalg.norm(axis):
+        shown = ", ".join(f"{a:g}" for a in axis)
+        raise StylizeError(f"{obj.name!r} is flattened along the stroke direction's axis ({shown}): its scale is 0 "
+                           "there, so the axis has no direction on its surface; choose another axis, or give the "
+                           "object a scale along it")
+    return tuple(float(a) for a in moved)
+
+
+def _check_surface(name, local, vertices, triangles):
+    """StylizeError unless some triangle has an area: one whose corners do not lie on a line or at one point."""
+    from ..mesh import surface_faces
+
+    if surface_faces(vertices, triangles).any():
+        return
+    why = ", as the object's scale flattens it" if surface_faces(local, triangles).any() else ""
+    raise StylizeError(f"the mesh of {name!r} has no surface to stylize: the corners of every face lie on a line "
+                       f"or at one point{why}")
+
+
+def same_corners(evaluated, original):
+    """Whether mesh ``evaluated`` has ``original``'s faces and face corners, in the same order.
+
+    Only then does a value written at a corner of the original mesh reach the
+    same corner of the evaluated one.  Modifiers that keep the counts but not
+    the order (Flip Faces, Sort Elements) fail this test.
+    """
+    if len(evaluated.loops) != len(original.loops) or len(evaluated.polygons) != len(original.polygons):
+        return False
+    return all(np.array_equal(_get(a, attr, len(a), np.int32), _get(b, attr, len(b), np.int32))
+               for a, b, attr in ((evaluated.polygons, original.polygons, "loop_start"),
+                                  (evaluated.polygons, original.polygons, "loop_total"),
+                                  (evaluated.loops, original.loops, "vertex_index")))
+
+
+def evaluated_uvs(obj, name, depsgraph=None):
+    """UV map ``name`` (L, 2) of ``obj``'s evaluated mesh, as its modifiers leave it (None if it is not there)."""
+    obj.data.update()
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        layer = mesh.uv_layers.get(name)
+        return None if layer is None else _get(layer.data, "uv", len(mesh.loops), np.float32, 2)
+    finally:
+        evaluated.to_mesh_clear()
 
 
 def fingerprint(obj):
@@ -135,7 +214,26 @@ def slots_state(obj):
 
 
 def write_corner_uvs(layer, loops, uvs):
-    """Write per-corner ``uvs`` (F, 3, 2) into UV map ``layer`` at the triangle corners ``loops`` (F, 3)."""
+    """Write per-corner ``uvs`` (F, 3, 2) into UV map ``layer`` at the triangle corners ``loops`` (F, 3).
+
+    Returns what was written (L, 2).
+    """
     data = np.zeros((len(layer.data), 2), dtype=np.float32)
     data[np.asarray(loops).ravel()] = np.asarray(uvs, dtype=np.float32).reshape(-1, 2)
     layer.data.foreach_set("uv", data.ravel())
+    return data
+
+
+def check_written_uvs(obj, name, written, *, after_run=False):
+    """StylizeError unless ``obj``'s modifiers leave the UV map ``name`` just written (``written``, (L, 2)) as it is.
+
+    A modifier that rewrites UV maps (UV Warp or UV Project on the active map,
+    a Geometry Nodes setup) would otherwise show the result through UVs it
+    was not made for.
+    """
+    evaluated = evaluated_uvs(obj, name)
+    if evaluated is not None and evaluated.shape == written.shape and np.array_equal(evaluated, written):
+        return
+    raise StylizeError(f"the modifiers of {obj.name!r} change the UVs of a new UV map, which the result needs as "
+                       f"they are{'; nothing was changed' if after_run else ''}: apply the modifiers first, or give "
+                       "the mesh a usable UV map")

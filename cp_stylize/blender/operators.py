@@ -28,8 +28,31 @@ def estimate(obj, settings, depsgraph=None):
 
     stylize.check_object(obj)
     mesh = meshdata.read(obj, depsgraph, corners=False)
-    guess = estimate_run(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not obj.data.uv_layers)
+    import numpy as np
+
+    index = np.zeros(len(obj.data.polygons), dtype=np.int32)
+    obj.data.polygons.foreach_get("material_index", index)
+    slots = np.unique(np.minimum(index, max(len(obj.material_slots) - 1, 0))).tolist()
+    guess = estimate_run(mesh.vertices, mesh.triangles, settings, keep=True, unwrap=not obj.data.uv_layers,
+                         image_pixels=stylize.input_pixels(obj, obj.data.uv_layers.keys(), slots, settings),
+                         speed=machine_speed())
     return guess.spacing, guess.band_points, guess.bytes, guess.seconds
+
+
+def machine_speed():
+    """The estimate's time factor for this computer (:func:`cp_stylize.calibration.machine_speed`).
+
+    Measured at the first estimate (well under a second, never when the
+    add-on is enabled) and kept in the extension's user folder, so that later
+    sessions read it; run from a checkout, not installed, it is kept in memory.
+    """
+    from ..calibration import machine_speed as speed
+
+    parts = __package__.split(".")
+    if parts[0] == "bl_ext" and len(parts) >= 3:
+        return speed(os.path.join(bpy.utils.extension_path_user(".".join(parts[:3]), create=True),
+                                  "calibration.json"))
+    return speed()
 
 
 def guarded(operator, work):
@@ -102,21 +125,23 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         from . import stylize
 
         panel = context.scene.cp_stylize
-        settings = load_preset(self.preset) if self.preset else panel.to_settings()
+        settings = load_preset(self.preset, user_folders()) if self.preset else panel.to_settings()
         if self.quality != "DEFAULT":
             settings = settings.replace(spacing=QUALITY_SPACING[self.quality])
         settings = settings.replace(image_size=int(panel.image_size))
         return stylize.prepare(context.active_object, settings, panel.output())
 
     def _finish(self, job):
-        from . import stylize
+        from . import results, stylize
 
         applied = stylize.apply(job)
         result = job.result
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
         reused = ", the last run's band reused" if "band" in job.reused else ""
-        self.report({"INFO"}, f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
-                              f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})")
+        self.report({"WARNING"} if applied.kept else {"INFO"},
+                    f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
+                    f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})"
+                    f"{results.kept_note(applied.kept)}")
         return {"FINISHED"}
 
     def execute(self, context):
@@ -229,15 +254,17 @@ def user_preset_dir(create=False):
     return bpy.utils.user_resource("SCRIPTS", path=os.path.join("presets", "cp_stylize"), create=create)
 
 
-def all_presets():
-    """``{label: path}`` of shipped and user presets (user presets win on equal names)."""
-    from ..presets import builtin_presets
-
-    found = dict(builtin_presets())
+def user_folders():
+    """The folders the add-on looks for presets in after the shipped ones: the user's preset folder."""
     folder = user_preset_dir()
-    if folder and os.path.isdir(folder):
-        found.update({f[:-5]: os.path.join(folder, f) for f in sorted(os.listdir(folder)) if f.endswith(".toml")})
-    return found
+    return [folder] if folder else []
+
+
+def all_presets():
+    """``{key: path}`` of the shipped and the user's presets (see :func:`cp_stylize.presets.preset_paths`)."""
+    from ..presets import preset_paths
+
+    return preset_paths(user_folders())
 
 
 class CP_STYLIZE_OT_preset_load(bpy.types.Operator):
@@ -247,23 +274,20 @@ class CP_STYLIZE_OT_preset_load(bpy.types.Operator):
     bl_label = "Load Preset"
     bl_options = {"REGISTER", "UNDO", "INTERNAL"}
 
-    name: bpy.props.StringProperty(name="Preset")
+    name: bpy.props.StringProperty(name="Preset", description="The preset's key, or its file's path")
 
     def execute(self, context):
         from ..presets import load_preset
 
-        path = all_presets().get(self.name, self.name)
-        try:
-            settings = load_preset(path)
-        except ValueError as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        context.scene.cp_stylize.from_settings(settings.replace(name=settings.name or self.name))
-        return {"FINISHED"}
+        def work():   # on any error the panel is as it was: a preset is checked whole, then set whole
+            settings = load_preset(self.name, user_folders())
+            context.scene.cp_stylize.from_settings(settings.replace(name=settings.name or self.name), key=self.name)
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
-    """Save the panel's settings as a user preset"""
+    """Save the panel's settings as a user preset (never over another preset)"""
 
     bl_idname = "cp_stylize.preset_add"
     bl_label = "Add Preset"
@@ -275,22 +299,17 @@ class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        from ..presets import save_preset
+        from ..presets import save_user_preset
 
-        file_name = bpy.path.clean_name(self.name).lower()
-        if not self.name.strip() or not file_name.strip("_"):
-            self.report({"ERROR"}, "a preset needs a name")
-            return {"CANCELLED"}
-        try:
-            settings = context.scene.cp_stylize.to_settings().replace(name=self.name, description="user preset")
-        except ValueError as err:
-            self.report({"ERROR"}, str(err))
-            return {"CANCELLED"}
-        path = os.path.join(user_preset_dir(create=True), file_name + ".toml")
-        save_preset(settings, path)
-        context.scene.cp_stylize.preset_name = self.name
-        self.report({"INFO"}, f"saved preset {self.name!r} to {path}")
-        return {"FINISHED"}
+        panel = context.scene.cp_stylize
+
+        def work():
+            settings = panel.to_settings().replace(description="user preset")
+            key, path, replaced = save_user_preset(settings, user_preset_dir(create=True), self.name)
+            panel.preset_name, panel.preset_key = self.name.strip(), key
+            self.report({"INFO"}, f"{'replaced' if replaced else 'saved'} the preset {self.name.strip()!r} in {path}")
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_preset_remove(bpy.types.Operator):
@@ -300,17 +319,16 @@ class CP_STYLIZE_OT_preset_remove(bpy.types.Operator):
     bl_label = "Remove Preset"
     bl_options = {"REGISTER", "INTERNAL"}
 
-    name: bpy.props.StringProperty(name="Preset")
+    name: bpy.props.StringProperty(name="Preset", description="The preset's key, or its file's path")
 
     def execute(self, context):
-        folder = user_preset_dir()
-        path = all_presets().get(self.name)
-        if not path or not folder or os.path.dirname(path) != os.path.normpath(folder):
-            self.report({"ERROR"}, f"{self.name!r} is not a user preset")
-            return {"CANCELLED"}
-        os.remove(path)
-        self.report({"INFO"}, f"removed preset {self.name!r}")
-        return {"FINISHED"}
+        from ..presets import remove_user_preset
+
+        def work():
+            path = remove_user_preset(self.name, user_preset_dir())
+            self.report({"INFO"}, f"removed the preset {self.name!r} ({path})")
+            return {"FINISHED"}
+        return guarded(self, work)
 
 
 class CP_STYLIZE_OT_palette_add(bpy.types.Operator):

@@ -9,13 +9,24 @@ from .properties import filter_property
 _estimate_cache = {}
 
 
+def _images(obj):
+    """The materials of ``obj`` and the sizes of their images: what the estimate's image cost depends on."""
+    found = []
+    for slot in obj.material_slots:
+        tree = slot.material.node_tree if slot.material else None
+        nodes = tree.nodes if tree else ()
+        found.append((slot.material and slot.material.name,
+                      tuple(tuple(n.image.size) for n in nodes if n.type == "TEX_IMAGE" and n.image)))
+    return tuple(found)
+
+
 def _estimate_text(obj, settings):
     """Lines describing the run's size, cached on what changes them."""
     try:
         core = settings.to_settings()
     except ValueError as err:
         return [str(err)]
-    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons))
+    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons), _images(obj))
     if key not in _estimate_cache:
         try:
             h, n, nbytes, seconds = operators.estimate(obj, core)
@@ -33,9 +44,11 @@ class CP_STYLIZE_MT_presets(bpy.types.Menu):
     bl_label = "Presets"
 
     def draw(self, context):
+        from ..presets import preset_menu
+
         layout = self.layout
-        for name in operators.all_presets():
-            layout.operator("cp_stylize.preset_load", text=bpy.path.display_name(name)).name = name
+        for key, label in preset_menu(operators.user_folders()):
+            layout.operator("cp_stylize.preset_load", text=label).name = key
 
 
 def _split(layout):
@@ -62,7 +75,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         row.menu("CP_STYLIZE_MT_presets", text=settings.preset_name or "Presets")
         row.operator("cp_stylize.preset_add", text="", icon="ADD")
         remove = row.operator("cp_stylize.preset_remove", text="", icon="REMOVE")
-        remove.name = bpy.path.clean_name(settings.preset_name).lower()
+        remove.name = settings.preset_key
 
         layout = _split(self.layout)
         layout.prop(settings, "mode")

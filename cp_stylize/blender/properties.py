@@ -1,7 +1,7 @@
 """The add-on's settings, stored on the scene as ``scene.cp_stylize``.
 
 Lengths and times are relative to the object's size: the object is normalised
-so that its longest side is 2 (as in the paper), so a setting looks the same on
+so that its diameter is 2 (as in the paper), so a setting looks the same on
 a 2 cm object and on a 20 m one.  The properties, their limits, defaults and
 descriptions come from :mod:`cp_stylize.parameters`, the core's one table.
 Each mode keeps its own filter parameters (``ced_rho``, ``eed_rho``, ...), so
@@ -14,9 +14,9 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN
+from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS
 
-#: Grid spacing relative to an object whose longest side is 2, by quality.
+#: Grid spacing relative to an object whose diameter is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
 #: Run parameters shown as sliders (shares from 0 to 1).
@@ -67,6 +67,8 @@ class CPStylizePaletteColour(bpy.types.PropertyGroup):
 
 class CPStylizeSettings(bpy.types.PropertyGroup):
     preset_name: bpy.props.StringProperty(name="Preset", description="The preset last loaded", default="")
+    preset_key: bpy.props.StringProperty(name="Preset Key", description="The key (or file) of the preset last "
+                                                                        "loaded or saved", default="")
     mode: bpy.props.EnumProperty(name="Mode", items=[(f.name, f.label, f.description) for f in FILTERS.values()],
                                  default="ced", update=_mode_changed)
     direction: bpy.props.EnumProperty(
@@ -82,9 +84,9 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         name="Quality",
         description="Grid spacing of the computational band, relative to the object's size",
         items=[
-            ("PREVIEW", "Preview", "Coarse grid (h = 0.016 for an object 2 units long): quick"),
-            ("STANDARD", "Standard", "h = 0.008 for an object 2 units long, the paper's grid"),
-            ("HIGH", "High", "h = 0.005 for an object 2 units long: fine strokes, about 2.5 times "
+            ("PREVIEW", "Preview", "Coarse grid (h = 0.016 for an object 2 units across): quick"),
+            ("STANDARD", "Standard", "h = 0.008 for an object 2 units across, the paper's grid"),
+            ("HIGH", "High", "h = 0.005 for an object 2 units across: fine strokes, about 2.5 times "
                              "the memory and time of Standard"),
             ("CUSTOM", "Custom", "Set the relative grid spacing yourself"),
         ],
@@ -95,7 +97,8 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         name="Colours", description="How the noise picks its palette colours",
         items=[(name, label, description) for name, (label, description) in NOISE_MAPPINGS.items()],
         default="random")
-    seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise", default=0, min=0)
+    seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise and the strokes", default=0,
+                                min=SEED_LIMITS[0], max=SEED_LIMITS[1])
     image_size: bpy.props.EnumProperty(
         name="Image Size", items=[(s, s, f"{s} x {s} pixels") for s in ("512", "1024", "2048", "4096")],
         default="1024",
@@ -140,8 +143,8 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
         direction = self.direction if self.mode in DIRECTED_MODES else None
-        # the axis and the attribute only when they are used: a zeroed axis must not stop an attribute run
-        used = {"axis": {"axis": tuple(self.axis)}, "attribute": {"attribute": self.direction_attribute}}
+        # the axis where it is used or usable (a zeroed axis must not stop an attribute run), so a preset keeps it
+        axis = {"axis": tuple(self.axis)} if direction == "axis" or any(self.axis) else {}
         return StylizeSettings(
             mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
             detail=self.detail, noise_mapping=self.noise_mapping, noise_spread=self.noise_spread,
@@ -149,17 +152,33 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, params=params,
-            direction=direction, **used.get(direction, {}))
+            direction=direction, attribute=self.direction_attribute, **axis)
 
     def output(self):
         """What to do with a run's result, and its limits (the Output panel)."""
+        from .operators import machine_speed
         from .stylize import Output
 
         return Output(image_name=self.image_name, target=self.target, storage=self.storage,
-                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep)
+                      memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep,
+                      speed=machine_speed())
 
-    def from_settings(self, settings):
-        """Set the filter properties from StylizeSettings (a loaded preset); output settings stay."""
+    def from_settings(self, settings, key=""):
+        """Set the filter properties from StylizeSettings (a loaded preset, ``key`` its key); output settings stay.
+
+        All or nothing: the settings are checked whole when they are made, and
+        should setting a property fail all the same, every property is put
+        back as it was before the error is raised.
+        """
+        kept = self._filter_state()
+        try:
+            self._set_filter(settings)
+            self.preset_key = key
+        except BaseException:
+            self._set_state(kept)
+            raise
+
+    def _set_filter(self, settings):
         self.preset_name = settings.name
         self.mode = settings.mode
         self.time = settings.T
@@ -184,6 +203,27 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         for colour, weight in zip(settings.palette, weights):
             item = self.palette.add()
             item.colour, item.weight = colour, weight
+
+    def _filter_state(self):
+        """Every property a preset sets, and the palette, as plain values."""
+        values = {name: getattr(self, name) for name in self.bl_rna.properties.keys()
+                  if name not in _OUTPUT and name != "rna_type" and name != "palette"}
+        values = {name: tuple(v) if hasattr(v, "__len__") and not isinstance(v, str) else v
+                  for name, v in values.items()}
+        return values, [(tuple(p.colour), p.weight) for p in self.palette]
+
+    def _set_state(self, state):
+        values, palette = state
+        for name, value in values.items():
+            setattr(self, name, value)
+        self.palette.clear()
+        for colour, weight in palette:
+            item = self.palette.add()
+            item.colour, item.weight = colour, weight
+
+
+#: The properties of the Output panel: a preset leaves them as they are.
+_OUTPUT = {"image_size", "image_name", "target", "storage", "memory_limit", "time_limit", "keep"}
 
 
 for _parameter in RUN.values():

@@ -16,10 +16,12 @@ A run has three steps, and only the last one changes the file:
 
 What a run writes: by default a copy of each material (``<material>_stylized``,
 which remembers its original, so a second run starts again from the original
-colours and updates the same copy); with ``target="APPLY"`` the object's own
-materials.  Where a mesh shares its data with other objects, the copy is
-assigned to this object only.  A saved image never overwrites a file: it takes
-the first free name (``wood.png``, ``wood.001.png``, ...).
+colours and updates the same copy, as long as no other object shows that copy);
+with ``target="APPLY"`` the object's own materials.  Where a mesh shares its
+data with other objects, the copy is assigned to this object only.  A saved
+image never overwrites a file: it takes the first free name (``wood.png``,
+``wood.001.png``, ...).  The images a result replaces are removed only if
+nothing uses them and nobody edited them (:mod:`.results`).
 
 What a run keeps: the parts it built before its filter (the band and its
 operators, the atlas, the surface points of the texels; see
@@ -40,14 +42,14 @@ import threading
 import bpy
 import numpy as np
 
-from . import bake, images, materials, meshdata
+from . import bake, images, materials, meshdata, results
 from .changes import Changes
 from .errors import Cancelled, StylizeError
 
 #: Name of the UV map added to meshes that have no usable UVs of their own.
 ATLAS_UV_NAME = "cp_stylize_atlas"
-#: Custom property marking an image a run made (its value: the object's name).
-MADE_BY = "cp_stylize"
+#: Blender's limit of UV maps a mesh can have.
+MAX_UV_MAPS = 8
 
 OBJECT_TYPES = {
     "EMPTY": "an empty", "CAMERA": "a camera", "LIGHT": "a light", "LIGHT_PROBE": "a light probe",
@@ -71,6 +73,7 @@ class Output:
     memory_limit: float = 8 * 2**30   # bytes
     time_limit: float = 15 * 60       # seconds
     keep: bool = True                 # keep what the run builds before its filter for the next run
+    speed: float = 1.0                # the estimate's time factor for this computer (cp_stylize.calibration)
 
 
 @dataclasses.dataclass
@@ -82,10 +85,11 @@ class Job:
     output: Output
     mesh: meshdata.MeshData
     colours: object                   # pipeline.ColourInput
-    uvs: np.ndarray | None            # (F, 3, 2) the render UV map, for the output atlas
-    uv_name: str | None
-    atlas: object                     # an Atlas decided before the run (procedural bake), or None
+    uvs: np.ndarray | None            # (F, 3, 2) the UVs the core tries for the output atlas, if it decides
+    uv_name: str | None               # the UV map the result is read through, unless it is a new one
+    atlas: object                     # an Atlas decided before the run, or None
     new_atlas: bool                   # a new UV map may be written if the mesh's own are not usable
+    no_atlas: str | None              # why not, if not
     slots: list                       # material slot indices the faces use
     fingerprint: str
     slots_state: list
@@ -99,6 +103,7 @@ class Applied:
     image: str                        # the new image's name
     path: str | None                  # the file it was saved as
     materials: tuple                  # names of the materials that show it
+    kept: tuple = ()                  # (name, edited) of the earlier results it replaced and kept (see results)
 
 
 # -- what runs keep for the next ---------------------------------------------------------------
@@ -219,21 +224,31 @@ def _image_texture(source, mesh, faces, material, owner):
 
     image = source.image
     images.check_readable(image)
-    linear = image.is_float or image.colorspace_settings.name in materials.LINEAR_SPACES
-    pixels = images.display_colours(image, linear)
     name = source.uv_name or mesh.render_uv
     if name is None:
         raise StylizeError(f"material {material.name!r} reads the image {image.name!r} through UVs, but the mesh "
                            f"of {owner!r} has no UV map")
     uvs = mesh.uv_maps[name]
+    bad = ~np.isfinite(uvs[faces]).all(axis=-1)
+    if bad.any():
+        count = len(np.unique(mesh.loops[faces][bad]))
+        corners = "1 corner whose UV is" if count == 1 else f"{count} corners whose UVs are"
+        raise StylizeError(f"the UV map {name!r} of {owner!r} has {corners} not a finite number, and material "
+                           f"{material.name!r} reads the image {image.name!r} through it: unwrap it again (UV > Unwrap "
+                           "in Edit Mode), or fix those corners, and press Stylize again")
     if source.transform is not None:
         A, b = source.transform
         uvs = uvs @ A.T + b
+        if not np.isfinite(uvs[faces]).all():
+            raise StylizeError(f"the Mapping node {source.mapping!r} in material {material.name!r} maps the UVs "
+                               "beyond finite numbers: lower its scale")
+    linear = image.is_float or image.colorspace_settings.name in materials.LINEAR_SPACES
+    pixels = images.display_colours(image, linear)
     return Texture(pixels, uvs, faces, (source.wrap, source.wrap))
 
 
 def _read_colours(obj, mesh, slots):
-    """The ColourInput of the faces, and the output sockets to bake: ``{slot index: socket}``."""
+    """The ColourInput of the faces, and what to bake: ``{slot index: (material, output socket)}``."""
     from ..pipeline import ColourInput
 
     n = len(mesh.triangles)
@@ -249,6 +264,7 @@ def _read_colours(obj, mesh, slots):
         material = obj.material_slots[index].material if len(obj.material_slots) else None
         if material is None:
             continue
+        material = materials.source_material(material)
         source = materials.colour_source(material, mesh.uv_maps.keys(), obj.name)
         if isinstance(source, materials.Flat):
             corner[faces] = source.colour
@@ -258,32 +274,125 @@ def _read_colours(obj, mesh, slots):
             corner[faces] = mesh.colours[source.name or mesh.render_colour][faces]
         else:
             socket = source.socket if isinstance(source, materials.BakeSource) else None
-            to_bake[index] = socket or materials.original_origin(materials.colour_input(material))
+            to_bake[index] = material, socket or materials.original_origin(materials.colour_input(material))
     return colours, to_bake
 
 
-def _bake_atlas(obj, mesh, settings, new_atlas, keep=True):
-    """The output atlas a procedural bake reads through: the mesh's render UV map if usable, else a new one."""
-    from ..atlas import UnusableUVs, uv_atlas
+def input_pixels(obj, uv_names, slots, settings):
+    """The pixels of the images a run on ``obj`` reads (material ``slots`` used): every image a material
+    reads directly, once for each material, and the bake's image where a colour must be baked."""
+    pixels, baked = 0, False
+    for index in slots:
+        material = obj.material_slots[index].material if len(obj.material_slots) else None
+        if material is None:
+            continue
+        source = materials.colour_source(materials.source_material(material), uv_names, obj.name)
+        if isinstance(source, materials.ImageSource):
+            pixels += source.image.size[0] * source.image.size[1]
+        elif not isinstance(source, (materials.Flat, materials.AttributeSource)):
+            baked = True
+    return pixels + (settings.image_size ** 2 if baked else 0)
+
+
+def _atlas(mesh, settings, keep, uvs, allow_new):
+    """The output atlas for the UVs ``uvs`` (or a new one), kept for re-runs like the core's own parts."""
+    from ..atlas import uv_atlas
+    from ..cache import RunCache, digest
     from ..mesh import TriangleMesh
 
-    from ..cache import RunCache, digest
-
-    uvs = mesh.uv_maps.get(mesh.render_uv)
     cache = kept() if keep else RunCache()
     cache.start(digest(mesh.vertices, mesh.triangles))      # the key of the core's own parts
-    try:
-        return cache.get("baked_atlas", (digest(uvs), settings.image_size, new_atlas),
-                         lambda: uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs,
-                                          allow_new=new_atlas))
-    except UnusableUVs as err:
-        raise StylizeError(_no_atlas_message(obj.name, err)) from None
+    return cache.get("output_atlas", (digest(uvs), settings.image_size, allow_new),
+                     lambda: uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs,
+                                      allow_new=allow_new))
 
 
 def _no_atlas_message(name, err):
     why = err.why or ("fix the UV map, or apply the modifiers that change its topology (or make its mesh local) "
                       "first")
     return f"{name!r} has no usable UV map for the result ({err.problems}) and cannot get a new one: {why}"
+
+
+def _listed(names):
+    """``'A'``, ``'A' and 'B'``, ``'A', 'B', 'C' and 2 more``."""
+    shown = [repr(n) for n in names[:3]]
+    if len(names) > 3:
+        return ", ".join(shown) + f" and {len(names) - 3} more"
+    return shown[0] if len(shown) == 1 else ", ".join(shown[:-1]) + f" and {shown[-1]}"
+
+
+def _no_new_uv_map(obj, mesh):
+    """Why no new UV map can be written onto ``obj``'s mesh for any result (None if one can)."""
+    data = obj.data
+    if data.library is not None:
+        return (f"its mesh {data.name!r} is linked from the library {data.library.name!r}: make it local first "
+                "(Object > Relations > Make Local), or give it a usable UV map in the library")
+    if not mesh.same_topology:
+        return "its modifiers change its faces or the order of their corners: apply them first, or give the mesh a " \
+               "usable UV map"
+    return None
+
+
+@dataclasses.dataclass(frozen=True)
+class AtlasPlan:
+    """How the result's UV layout is decided before the run."""
+
+    atlas: object                     # the Atlas, when decided here (else the core decides)
+    uvs: object                       # (F, 3, 2) the UVs the core tries, when it decides
+    uv_name: str | None               # the UV map the result is read through, when not a new one
+    new_atlas: bool                   # the core may make a new atlas
+    why: str | None                   # why no new UV map can be written (the core's refusal)
+
+
+def _atlas_plan(obj, mesh, settings, keep, bake_needed):
+    """Decide, as far as can be decided before the run, which UV map the result goes on.
+
+    The render UV map where it is usable; else the ``cp_stylize_atlas`` map an
+    earlier run wrote, where usable; else a new atlas.  Whether the render map
+    is usable is left to the core (it costs a raster of the UVs) unless it
+    matters now: for a procedural bake, which needs the atlas, and where a new
+    UV map might not be possible or allowed (Blender's limit of
+    :data:`MAX_UV_MAPS`, a mesh shared with other objects, an earlier atlas to
+    try).  Raises StylizeError where a new UV map is needed and cannot be written.
+    """
+    from ..atlas import UnusableUVs
+
+    layers = obj.data.uv_layers
+    render = mesh.render_uv
+    stored = ATLAS_UV_NAME if ATLAS_UV_NAME in mesh.uv_maps and ATLAS_UV_NAME != render else None
+    why = _no_new_uv_map(obj, mesh)
+    if mesh.uv_maps and not (bake_needed or stored or len(layers) >= MAX_UV_MAPS):
+        return AtlasPlan(None, mesh.uv_maps[render], render, why is None, why)
+    problems = "it has none"
+    for name in (render, stored) if mesh.uv_maps else ():
+        if name is None:
+            continue
+        try:
+            return AtlasPlan(_atlas(mesh, settings, keep, mesh.uv_maps[name], False), None, name, False, None)
+        except UnusableUVs as err:
+            problems = err.problems if name == render else problems
+    # a new UV map it must be
+    sharing = [o.name for o in bpy.data.objects if o.data == obj.data and o != obj]
+    if why is None and sharing and not mesh.uv_maps:
+        why = (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and a new UV map would become the "
+               f"render UV map there too, changing how {'it renders' if len(sharing) == 1 else 'they render'}: "
+               f"give {obj.name!r} its own mesh first (Object > Relations > Make Single User > Object & Data), or add "
+               "a UV map to the mesh")
+    elif why is None and sharing and ATLAS_UV_NAME in layers:
+        why = (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and rewriting its UV map "
+               f"{ATLAS_UV_NAME!r} could change how {'it renders' if len(sharing) == 1 else 'they render'}: give "
+               f"{obj.name!r} its own mesh first (Object > Relations > Make Single User > Object & Data)")
+    elif why is None and len(layers) >= MAX_UV_MAPS and (ATLAS_UV_NAME not in layers or bake_needed):
+        why = (f"its mesh {obj.data.name!r} already has {len(layers)} UV maps, Blender's limit: remove one it does "
+               "not need (Object Data properties > UV Maps) and press Stylize again")
+    if why is not None:
+        raise StylizeError(_no_atlas_message(obj.name, UnusableUVs(problems, why)))
+    if not bake_needed:
+        return AtlasPlan(None, None, None, True, None)   # the core makes the new atlas, in the run
+    try:
+        return AtlasPlan(_atlas(mesh, settings, keep, None, True), None, None, True, None)
+    except UnusableUVs as err:
+        raise StylizeError(_no_atlas_message(obj.name, err)) from None
 
 
 def _direction_attribute(obj, settings):
@@ -309,33 +418,33 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         save_folder()
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
     if settings.stroke_direction == "axis":
-        # the axis is the object's; the core sees the mesh in world space
-        settings = settings.replace(axis=tuple(np.array(obj.matrix_world)[:3, :3] @ np.array(settings.axis)))
+        # the axis is the object's; the core sees the mesh in world units without its rotation
+        settings = settings.replace(axis=meshdata.axis_in_frame(obj, settings.axis))
     if not output.keep:
         release()
-    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps)
-    check_limits(guess, output)
     slot_count = len(obj.material_slots)
     used = np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))
     slots = [int(i) for i in used]
+    guess = estimate(mesh.vertices, mesh.triangles, settings, keep=output.keep, unwrap=not mesh.uv_maps,
+                     image_pixels=input_pixels(obj, mesh.uv_maps.keys(), slots, settings), speed=output.speed)
+    check_limits(guess, output)
     for index in slots:
         if slot_count and obj.material_slots[index].material is not None:
             _check_writable(obj.material_slots[index].material, output)
-    new_atlas = mesh.same_topology and obj.data.library is None
     colours, to_bake = _read_colours(obj, mesh, slots)
-    atlas = None
+    if to_bake:
+        bake.check_bakeable(obj)
+    plan = _atlas_plan(obj, mesh, settings, output.keep, bool(to_bake))
     if to_bake:
         from ..pipeline import Texture
 
-        bake.check_bakeable(obj)
-        atlas = _bake_atlas(obj, mesh, settings, new_atlas, output.keep)
-        own = not atlas.generated
-        baked = bake.bake(obj, to_bake, settings.image_size, uv_name=mesh.render_uv if own else None,
-                          uvs=None if own else atlas.uvs, loops=mesh.loops)
+        atlas = plan.atlas
+        baked = bake.bake(obj, to_bake, settings.image_size, uv_name=None if atlas.generated else plan.uv_name,
+                          uvs=atlas.uvs if atlas.generated else None, loops=mesh.loops)
         faces = np.isin(np.minimum(mesh.material_index, max(slot_count - 1, 0)), list(to_bake))
         colours.textures.append(Texture(baked, atlas.uvs, faces, ("clamp", "clamp")))
     return Job(object_name=obj.name, settings=settings, output=output, mesh=mesh, colours=colours,
-               uvs=mesh.uv_maps.get(mesh.render_uv), uv_name=mesh.render_uv, atlas=atlas, new_atlas=new_atlas,
+               uvs=plan.uvs, uv_name=plan.uv_name, atlas=plan.atlas, new_atlas=plan.new_atlas, no_atlas=plan.why,
                slots=slots, fingerprint=meshdata.fingerprint(obj), slots_state=meshdata.slots_state(obj),
                estimate=guess)
 
@@ -355,7 +464,8 @@ def run_core(job, progress=None, log=None):
                              atlas=job.atlas, new_atlas=job.new_atlas, directions=job.mesh.directions,
                              progress=progress, log=log, cache=cache)
     except UnusableUVs as err:
-        raise StylizeError(_no_atlas_message(job.object_name, err)) from None
+        raise StylizeError(_no_atlas_message(job.object_name, UnusableUVs(err.problems, err.why or job.no_atlas))) \
+            from None
     finally:
         _kept_bytes = 0 if cache is None else cache.nbytes()
     job.reused = [] if cache is None else list(cache.reused)
@@ -433,16 +543,20 @@ def _current_object(job):
     return obj
 
 
-def _write_atlas_uvs(mesh, loops, uvs, changes):
-    layer = mesh.uv_layers.get(ATLAS_UV_NAME)
-    if layer is None:
-        layer = changes.new_id(mesh.uv_layers, mesh.uv_layers.new(name=ATLAS_UV_NAME, do_init=False))
-    else:
-        old = np.empty(2 * len(layer.data), dtype=np.float32)
-        layer.data.foreach_get("uv", old)
-        changes.record(lambda: layer.data.foreach_set("uv", old))
-    meshdata.write_corner_uvs(layer, loops, uvs)
-    return layer.name
+def _write_atlas_uvs(obj, loops, uvs, changes):
+    """Write the new atlas ``uvs`` (F, 3, 2) at the triangle corners ``loops`` into the UV map :data:`ATLAS_UV_NAME`."""
+    mesh = obj.data
+    if ATLAS_UV_NAME in mesh.uv_layers:
+        old = np.empty(2 * len(mesh.loops), dtype=np.float32)
+        mesh.uv_layers[ATLAS_UV_NAME].data.foreach_get("uv", old)
+        changes.record(lambda: mesh.uv_layers[ATLAS_UV_NAME].data.foreach_set("uv", old))
+    elif changes.new_uv_map(mesh, ATLAS_UV_NAME) is None:
+        raise StylizeError(f"the mesh of {obj.name!r} has {len(mesh.uv_layers)} UV maps, Blender's limit, and the "
+                           "result needs a new one; nothing was changed: remove a UV map it does not need "
+                           "(Object Data properties > UV Maps) and press Stylize again")
+    written = meshdata.write_corner_uvs(mesh.uv_layers[ATLAS_UV_NAME], loops, uvs)
+    meshdata.check_written_uvs(obj, ATLAS_UV_NAME, written, after_run=True)
+    return ATLAS_UV_NAME
 
 
 def _store(image, output, name, changes):
@@ -463,16 +577,48 @@ def _store(image, output, name, changes):
     return path
 
 
+#: The datablock collections whose items hold materials in slots of their own.
+_MATERIAL_HOLDERS = ("meshes", "curves", "metaballs", "volumes", "pointclouds", "hair_curves", "grease_pencils",
+                     "grease_pencils_v3")
+
+
+def _shown_by_others(material, obj):
+    """Whether anything other than ``obj`` may show ``material``.
+
+    True where another object's slot shows it, and where it has users the
+    slots do not account for (a Geometry Nodes Set Material node, say).
+    """
+    if any(other != obj and any(slot.material == material for slot in other.material_slots)
+           for other in bpy.data.objects):
+        return True
+    known = int(material.use_fake_user)
+    for holders in _MATERIAL_HOLDERS:
+        known += sum(list(data.materials).count(material) for data in getattr(bpy.data, holders, ()))
+    known += sum(slot.link == "OBJECT" and slot.material == material
+                 for other in bpy.data.objects for slot in other.material_slots)
+    return material.users > known
+
+
+def _own_copy(material, obj):
+    """Whether ``material`` is a copy an earlier run made that only ``obj`` shows, so this run may rewire it."""
+    return (material.get(materials.ORIGINAL) is not None and material.library is None
+            and not _shown_by_others(material, obj))
+
+
 def _material_for(obj, index, output, changes, copies):
     """The material slot ``index``'s result goes into, creating or copying one as needed.
 
-    ``copies`` maps each original material to its copy made in this run, so
-    that slots sharing a material share its copy.
+    ``copies`` maps each material to its copy made in this run, so that slots
+    sharing a material share its copy.  A copy an earlier run made is reused
+    only while no other object shows it (a duplicate of the object, or an
+    object the material was linked to, keeps its look): otherwise it is
+    copied in turn, with the user's changes to it, and the new copy points to
+    the same original.
     """
     slot = obj.material_slots[index] if index < len(obj.material_slots) else None
     material = slot.material if slot is not None else None
-    if material is not None and (output.target == "APPLY" or material.get(materials.ORIGINAL) is not None):
-        return material     # the user's own, or the copy an earlier run made
+    if material is not None and (output.target == "APPLY" or _own_copy(material, obj)):
+        return material     # the user's own, or this object's copy from an earlier run
     if material is None:
         new = changes.new_id(bpy.data.materials, bpy.data.materials.new(f"{obj.name}_stylized"))
         if new.node_tree is None:
@@ -480,9 +626,10 @@ def _material_for(obj, index, output, changes, copies):
     elif material in copies:
         new = copies[material]
     else:
+        original = material.get(materials.ORIGINAL) or material
         new = copies[material] = changes.new_id(bpy.data.materials, material.copy())
-        new.name = f"{material.name}_stylized"
-        changes.set_item(new, materials.ORIGINAL, material)
+        new.name = f"{original.name}_stylized"
+        changes.set_item(new, materials.ORIGINAL, original)
     mesh = obj.data
     if slot is None:   # no slots: add one to the mesh, empty at mesh level
         mesh.materials.append(None)
@@ -498,31 +645,27 @@ def apply(job):
     """Write the result into the file as one transaction; returns :class:`Applied`.
 
     Raises StylizeError (with nothing changed) if the object was deleted,
-    entered Edit Mode or changed during the run, or if saving fails.
+    entered Edit Mode or changed during the run, or if saving fails.  The
+    images the result replaces are removed or kept as :mod:`.results` says.
     """
     obj = _current_object(job)
     result, output = job.result, job.output
     name = output.image_name or f"{obj.name}_stylized"
+    replaced = results.Replaced()
     with Changes() as changes:
         uv_name = job.uv_name
         if result.atlas.generated:
-            uv_name = _write_atlas_uvs(obj.data, job.mesh.loops, result.atlas.uvs, changes)
+            uv_name = _write_atlas_uvs(obj, job.mesh.loops, result.atlas.uvs, changes)
         image = changes.new_id(bpy.data.images, images.array_to_image(name, result.image))
-        image[MADE_BY] = obj.name
         path = _store(image, output, name, changes)
-        replaced, wired, copies = [], [], {}
+        results.mark(image, obj)
+        wired, copies = [], {}
         for index in job.slots:
             material = _material_for(obj, index, output, changes, copies)
-            if material.name in wired:
+            if material in wired:
                 continue
-            tree_node = material.node_tree.nodes.get(materials.NODE) if material.node_tree else None
-            replaced.append(getattr(tree_node, "image", None))
-            materials.wire(material, image, uv_name, changes)
-            wired.append(material.name)
-    for old in replaced:   # the previous run's image, if nothing else uses it and nobody painted on it
-        if old is not None and old != image and old.get(MADE_BY) and old.users == 0 and not old.is_dirty:
-            old_name = old.name
-            bpy.data.images.remove(old)
-            if old_name == name:
-                image.name = old_name
-    return Applied(image=image.name, path=path, materials=tuple(wired))
+            replaced.add(materials.wire(material, image, uv_name, changes))
+            wired.append(material)
+        unused, kept = replaced.retire([image], changes)
+    results.remove(unused, [(image, name)])
+    return Applied(image=image.name, path=path, materials=tuple(m.name for m in wired), kept=tuple(kept))

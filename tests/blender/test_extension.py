@@ -39,9 +39,18 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
         import addon_utils
         assert "bl_ext.user_default.cp_stylize" in {{m.__name__ for m in addon_utils.modules()}}
         assert addon_utils.check("bl_ext.user_default.cp_stylize")[1], "not enabled"
+        # enabling is cheap: no core, no SciPy, no calibration
+        assert not any(name.startswith(("bl_ext.user_default.cp_stylize.cp_stylize.calibration", "scipy"))
+                       for name in sys.modules)
         bpy.ops.mesh.primitive_uv_sphere_add(radius=2.0)
         assert bpy.ops.object.cp_stylize_estimate() == {{"FINISHED"}}
         addon = sys.modules["bl_ext.user_default.cp_stylize"]
+        # the first estimate timed the computer once and kept it in the extension's user folder
+        import json, os
+        kept = os.path.join(bpy.utils.extension_path_user("bl_ext.user_default.cp_stylize"), "calibration.json")
+        seconds = json.load(open(kept))["seconds"]
+        calibration = sys.modules["bl_ext.user_default.cp_stylize.cp_stylize.calibration"]
+        assert calibration.machine_speed(kept) == min(max(seconds / calibration.REFERENCE_SECONDS, 0.25), 8.0)
         h, n, nbytes, seconds = addon.cp_stylize.blender.operators.estimate(
             bpy.context.active_object, bpy.context.scene.cp_stylize.to_settings())
         assert abs(h - 0.016 * 4.0 / 2) < 1e-9, h
@@ -52,7 +61,7 @@ def test_zip_installs_enables_and_its_operator_runs(extension_zip, tmp_path):
     proc = fresh_blender(code, env={"HOME": str(home), "PYTHONPATH": ""})
     line = next(l for l in proc.stdout.splitlines() if l.startswith("ESTIMATE"))
     n = int(line.split()[2])
-    # a sphere of radius 2 (area 16 pi, longest side 4) at the preview spacing 0.016 * 4 / 2:
+    # a sphere of radius 2 (area 16 pi, diameter 4) at the preview spacing 0.016 * 4 / 2:
     # the band holds about 2 w A / h^3 points
     from cp_stylize import band_width
 

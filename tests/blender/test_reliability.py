@@ -2,13 +2,15 @@
 
 One test a case: files next to the .blend, the user's images during a
 procedural bake, failures after the core has run, what the renderer reads
-(UV maps, texture coordinates, shaders, colour spaces, image extension), the
-scope of a run (loose vertices, linked duplicates, library data, a second
-run), the messages, and the limits.  Each test compares snapshots of the
+(UV maps, texture coordinates, shaders, colour spaces, image extension, muted
+nodes), the scope of a run (loose vertices, linked duplicates, library data, a
+second run), second runs on shared or edited results, shared meshes and UV
+maps, the messages, and the limits.  Each test compares snapshots of the
 whole file (``blender_state``) and the exact message the user sees.
 """
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -168,11 +170,68 @@ def test_a_procedural_colour_on_a_mesh_without_uvs_is_baked_through_a_new_atlas(
     assert grey.max() - grey.min() > 0.3  # both checker tones
 
 
-def test_a_hidden_object_with_a_procedural_colour_is_refused(addon):
+def _in_collection(obj, **flags):
+    """Move ``obj`` into a new collection 'Props'; set ``flags`` on it (``layer_`` ones on its layer collection)."""
+    collection = bpy.data.collections.new("Props")
+    bpy.context.scene.collection.children.link(collection)
+    collection.objects.link(obj)
+    bpy.context.scene.collection.objects.unlink(obj)
+    layer = bpy.context.view_layer.layer_collection.children["Props"]
+    for flag, value in flags.items():
+        setattr(layer if flag.startswith("layer_") else collection, flag.removeprefix("layer_"), value)
+
+
+BAKE_VISIBILITY = {
+    "hidden": (lambda o: o.hide_set(True),
+               "'Ball' is hidden: show it (Alt+H) so that its procedural colours can be baked"),
+    "disabled in viewports": (lambda o: setattr(o, "hide_viewport", True),
+                              "'Ball' is disabled in viewports: enable it (the monitor icon in the Outliner, or Object "
+                              "properties > Visibility > Show in Viewports) so that its procedural colours can be "
+                              "baked"),
+    "disabled in renders": (lambda o: setattr(o, "hide_render", True),
+                            "'Ball' is disabled in renders: enable it (the camera icon in the Outliner, or Object "
+                            "properties > Visibility > Show in Renders) so that its procedural colours can be baked"),
+    "not selectable": (lambda o: setattr(o, "hide_select", True),
+                       "'Ball' cannot be selected, and Cycles bakes only selected objects: make it selectable (the "
+                       "arrow icon in the Outliner, or Object properties > Visibility > Selectable) so that its "
+                       "procedural colours can be baked"),
+    "a holdout": (lambda o: setattr(o, "is_holdout", True),
+                  "'Ball' is a holdout, which Cycles bakes black: turn Holdout off (Object properties > Visibility > "
+                  "Holdout) so that its procedural colours can be baked"),
+    "in a hidden collection": (lambda o: _in_collection(o, layer_hide_viewport=True),
+                               "'Ball' cannot be baked: its collection 'Props' is hidden: show it (the eye icon next "
+                               "to it in the Outliner) so that its procedural colours can be baked"),
+    "in a collection disabled in viewports": (lambda o: _in_collection(o, hide_viewport=True),
+                                              "'Ball' cannot be baked: its collection 'Props' is disabled in "
+                                              "viewports: enable it (the monitor icon next to it in the Outliner) so "
+                                              "that its procedural colours can be baked"),
+    "in a collection disabled in renders": (lambda o: _in_collection(o, hide_render=True),
+                                            "'Ball' cannot be baked: its collection 'Props' is disabled in renders: "
+                                            "enable it (the camera icon next to it in the Outliner) so that its "
+                                            "procedural colours can be baked"),
+    "in an unselectable collection": (lambda o: _in_collection(o, hide_select=True),
+                                      "'Ball' cannot be baked: its collection 'Props' cannot be selected: make it "
+                                      "selectable (the arrow icon next to it in the Outliner) so that its procedural "
+                                      "colours can be baked"),
+    "in a holdout collection": (lambda o: _in_collection(o, layer_holdout=True),
+                                "'Ball' cannot be baked: its collection 'Props' is a holdout, which Cycles bakes "
+                                "black: turn its Holdout off in the Outliner so that its procedural colours can be "
+                                "baked"),
+    "in an excluded collection": (lambda o: _in_collection(o, layer_exclude=True),
+                                  "'Ball' is not in the view layer 'ViewLayer': its collection 'Props' is excluded "
+                                  "from the view layer: include it (the checkbox next to it in the Outliner) so that "
+                                  "its procedural colours can be baked"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAKE_VISIBILITY))
+def test_an_object_cycles_cannot_bake_is_refused_with_what_to_change(addon, case):
     obj = sphere(material=procedural_material())
-    obj.hide_set(True)
+    setup, message = BAKE_VISIBILITY[case]
+    setup(obj)
     before = snapshot()
-    assert run_error() == "'Ball' is hidden: show it (Alt+H) so that its procedural colours can be baked"
+    with bpy.context.temp_override(active_object=obj, object=obj):   # the Outliner can make any object active
+        assert run_error() == message
     assert_unchanged(before, snapshot())
 
 
@@ -199,12 +258,49 @@ def _refused_before_the_band_is_built(monkeypatch):
     return message
 
 
-def test_a_mesh_without_uvs_whose_modifiers_change_its_topology_is_refused_before_the_run(addon, monkeypatch):
+def flip_faces_modifier(obj):
+    """A Geometry Nodes modifier that flips every face: the same counts, the corners in another order."""
+    tree = bpy.data.node_groups.new("Flip", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    flip = tree.nodes.new("GeometryNodeFlipFaces")
+    tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], flip.inputs[0])
+    tree.links.new(flip.outputs[0], tree.nodes.new("NodeGroupOutput").inputs[0])
+    obj.modifiers.new("Flip", "NODES").node_group = tree
+
+
+@pytest.mark.parametrize("modifier", ["Subdivision", "Flip Faces"])
+def test_a_mesh_without_uvs_whose_modifiers_change_its_corners_is_refused_before_the_run(addon, monkeypatch,
+                                                                                       modifier):
     obj = _bare_sphere_with_material()
-    obj.modifiers.new("Subdivision", "SUBSURF")
+    if modifier == "Subdivision":
+        obj.modifiers.new("Subdivision", "SUBSURF")
+    else:
+        flip_faces_modifier(obj)
     assert _refused_before_the_band_is_built(monkeypatch) == (
-        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: "
-        "fix the UV map, or apply the modifiers that change its topology (or make its mesh local) first")
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: its modifiers change its "
+        "faces or the order of their corners: apply them first, or give the mesh a usable UV map")
+
+
+@pytest.mark.parametrize("modifier", ["UV Warp", "Geometry Nodes"])
+def test_modifiers_that_change_a_new_uv_map_are_refused(addon, modifier):
+    obj = _bare_sphere_with_material()
+    if modifier == "UV Warp":   # it warps the active UV map: the new one, on a mesh without UV maps
+        obj.modifiers.new("Warp", "UV_WARP").scale = (2.0, 1.0)
+    else:                       # a setup that writes every UV map it finds
+        tree = bpy.data.node_groups.new("Scale UVs", "GeometryNodeTree")
+        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        store = tree.nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type, store.domain = "FLOAT2", "CORNER"
+        store.inputs["Name"].default_value = "cp_stylize_atlas"
+        tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], store.inputs["Geometry"])
+        tree.links.new(store.outputs["Geometry"], tree.nodes.new("NodeGroupOutput").inputs[0])
+        obj.modifiers.new("Scale UVs", "NODES").node_group = tree
+    before = snapshot()
+    assert run_error() == ("the modifiers of 'Ball' change the UVs of a new UV map, which the result needs as they "
+                           "are; nothing was changed: apply the modifiers first, or give the mesh a usable UV map")
+    assert_unchanged(before, snapshot())
 
 
 def test_without_xatlas_a_mesh_without_uvs_gets_an_atlas_of_projected_charts(addon, monkeypatch):
@@ -531,6 +627,91 @@ def test_images_are_read_as_cycles_renders_them(addon, case):
     assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
 
 
+def cycles_emission(obj, size=256):
+    """The colour Cycles renders on ``obj`` (an Emit bake), sRGB-encoded, at its faces' centres."""
+    from cp_stylize.texture import linear_to_srgb
+
+    material = obj.material_slots[0].material
+    target = bpy.data.images.new("cycles base colour", size, size, float_buffer=True)
+    node = material.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = target
+    material.node_tree.nodes.active = node
+    scene = bpy.context.scene
+    scene.render.engine, scene.cycles.samples, scene.cycles.device = "CYCLES", 1, "CPU"
+    render_uv = next(l.name for l in obj.data.uv_layers if l.active_render)
+    bpy.ops.object.bake(type="EMIT", margin=4, use_clear=True, uv_layer=render_uv)
+    baked = pixels(target)
+    texel = np.clip((job_centres_uv(obj) * size).astype(int), 0, size - 1)
+    return linear_to_srgb(np.clip(baked[texel[:, 1], texel[:, 0]], 0.0, None))
+
+
+def _muted(material, case):
+    """Mute a node (or link) of ``material``, whose Image Texture feeds an Emission, as ``case`` says."""
+    tree = material.node_tree
+    tex = texture_node(material)
+    base = next(n for n in tree.nodes if n.type == "EMISSION").inputs["Color"]
+    if case == "image":
+        tex.mute = True
+    elif case == "link":
+        base.links[0].is_muted = True
+    elif case.startswith("mix"):
+        mix = tree.nodes.new("ShaderNodeMix")
+        mix.data_type = "RGBA"
+        socket = {s.identifier: s for s in mix.inputs}
+        socket["B_Color"].default_value = (*GREEN, 1.0)
+        tree.links.new(tex.outputs["Color"], socket["A_Color" if case == "mix, image on A" else "B_Color"])
+        tree.links.new(next(s for s in mix.outputs if s.identifier == "Result_Color"), base)
+        mix.mute = True   # passes A on, or nothing
+    elif case == "gamma":
+        gamma = tree.nodes.new("ShaderNodeGamma")
+        gamma.inputs["Gamma"].default_value = 2.2
+        tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
+        tree.links.new(gamma.outputs["Color"], base)
+        gamma.mute = True
+    else:   # a UV Map node naming the second map, through a Mapping node or directly
+        uv = tree.nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "Second"
+        if case == "mapping":
+            mapping = tree.nodes.new("ShaderNodeMapping")
+            mapping.inputs["Scale"].default_value = (2.0, 2.0, 1.0)
+            tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+            tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+            mapping.mute = True   # passes the second map's UVs on
+        else:
+            tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
+            uv.mute = True        # passes nothing: the image reads the render UV map
+
+
+@pytest.mark.parametrize("case", ["image", "link", "mix, image on A", "mix, image on B", "gamma", "mapping",
+                                  "UV map node"])
+def test_muted_nodes_are_read_as_cycles_renders_them(addon, case):
+    from cp_stylize.blender import stylize
+
+    material = image_material("Muted", smooth_image("smooth"), shader="ShaderNodeEmission")
+    _muted(material, case)
+    obj = sphere(material=material, segments=48, rings=24)
+    uv = np.empty(2 * len(obj.data.loops))
+    obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    obj.data.uv_layers.new(name="Second").data.foreach_set("uv", 0.25 + 0.5 * uv)
+    before = snapshot()
+    read = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    assert_unchanged(before, snapshot())
+    error = np.abs(read - cycles_emission(obj)).max(axis=1)
+    print(f"\n{case}: median {np.median(error):.4f}, 98th percentile {np.percentile(error, 98):.4f}")
+    assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
+    assert (np.ptp(read, axis=0).max() > 0.5) == (case not in ("image", "link"))   # the image, or one colour
+
+
+def test_a_muted_shader_is_named(addon):
+    material = image_material("Painted", halves("source"))
+    next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED").mute = True
+    sphere(material=material)
+    before = snapshot()
+    assert run_error() == ("material 'Painted': its surface comes from the muted node 'Principled BSDF' (Principled "
+                           "BSDF), so it renders no surface: unmute it (M in the Shader Editor)")
+    assert_unchanged(before, snapshot())
+
+
 # -- 8-11. scope -----------------------------------------------------------------------------------
 
 
@@ -635,6 +816,387 @@ def test_a_second_apply_reads_the_original_colours(addon):
     np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
 
 
+# -- 14. second runs, duplicates and edited results --------------------------------------------------
+
+
+def run_report(capfd):
+    """The report of a finished run (printed in background mode): ``(kind, message)``."""
+    capfd.readouterr()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    line = [l for l in capfd.readouterr().out.splitlines() if l.startswith(("Info: styl", "Warning: styl"))][-1]
+    kind, _, message = line.partition(": ")
+    return kind, message
+
+
+def report_pattern(obj, image, tail=""):
+    """A regular expression of a run's report, the run's time and band size left open."""
+    import re
+
+    return (rf"stylized {obj!r} into {image!r} in [0-9.]+ s \([0-9,]+ band points, grid spacing 0\.04"
+            rf"(, the last run's band reused)?\){re.escape(tail)}")
+
+
+def changed_paths(before, after):
+    """The snapshot paths that differ (``images.Ball_stylized``, ``materials.Painted_stylized.nodes``, ...)."""
+    from blender_state import differences
+
+    return sorted({d.split(": ")[0] for d in differences(before, after)})
+
+
+def two_material_sphere():
+    """A sphere whose lower half wears 'Lower' (a red-blue image) and upper half 'Upper' (green-red)."""
+    obj = sphere(material=image_material("Lower", halves("lower")))
+    obj.data.materials.append(image_material("Upper", halves("upper", GREEN, RED)))
+    centres = np.array([p.center.z for p in obj.data.polygons])
+    obj.data.polygons.foreach_set("material_index", (centres > 0).astype(np.int32))
+    return obj
+
+
+@pytest.mark.parametrize("target", ["NEW_MATERIAL", "APPLY"])
+def test_a_second_run_on_two_materials_replaces_their_image_once(addon, capfd, target):
+    obj = two_material_sphere()
+    addon.target = target
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = pixels(stylized_image(obj)).copy()
+    addon.time = 0.004   # a different look
+    before = snapshot()
+    kind, message = run_report(capfd)
+    after = snapshot()
+    assert kind == "Info" and re.fullmatch(report_pattern("Ball", "Ball_stylized"), message), message
+    # the one image both materials showed is replaced by the new one, under its name; nothing else changes
+    assert changed_paths(before, after) == ["images.Ball_stylized"]
+    assert stylized_image(obj, 0) == stylized_image(obj, 1) == bpy.data.images["Ball_stylized"]
+    assert np.abs(pixels(stylized_image(obj)) - first).max() > 0.05
+
+
+def _duplicate(obj, how):
+    """A second object 'Other' that shows ``obj``'s first material: Shift+D, Link Materials or an object slot."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    if how == "Shift+D":
+        bpy.ops.object.duplicate(linked=False)     # a copy of the mesh, the same materials
+        other = bpy.context.active_object
+    else:
+        other = sphere("Other", material=image_material("Own", halves("own", GREEN, BLUE)), location=(3, 0, 0))
+        if how == "Link Materials":
+            for o in bpy.context.view_layer.objects:
+                o.select_set(o in (obj, other))
+            bpy.context.view_layer.objects.active = obj
+            bpy.ops.object.make_links_data(type="MATERIAL")
+        else:
+            other.material_slots[0].link = "OBJECT"
+            other.material_slots[0].material = obj.material_slots[0].material
+    other.name = "Other"
+    other.location.x = 3.0
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == other)
+    bpy.context.view_layer.objects.active = other
+    return other
+
+
+@pytest.mark.parametrize("how", ["Shift+D", "Link Materials", "object slot"])
+def test_another_object_showing_the_result_keeps_its_look(addon, how):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copy = obj.material_slots[0].material
+    copy.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.2   # the user's change
+    other = _duplicate(obj, how)
+    assert other.material_slots[0].material == copy
+    other.data.transform(np.diag([1.0, 1.0, 0.5, 1.0]))   # a shape of its own
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    # the first object, its copy and its image are as they were
+    assert after["objects"]["Ball"] == before["objects"]["Ball"]
+    assert after["materials"]["Painted_stylized"] == before["materials"]["Painted_stylized"]
+    assert after["images"]["Ball_stylized"] == before["images"]["Ball_stylized"]
+    # the other object wears a copy of its own, with the user's change, pointing to the same original
+    own = other.material_slots[0].material
+    assert own.name == "Painted_stylized.001" and own["cp_stylize_original"] == material
+    assert own.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value == pytest.approx(0.2)
+    assert stylized_image(other).name == "Other_stylized"
+    assert set(after["materials"]) - set(before["materials"]) == {"Painted_stylized.001"}
+    # and a run on the first object again still updates its own copy
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert obj.material_slots[0].material == copy and stylized_image(obj).name == "Ball_stylized"
+    assert after["materials"] == before["materials"] and after["objects"]["Other"] == before["objects"]["Other"]
+
+
+def test_a_result_another_object_shows_through_geometry_nodes_is_not_rewired(addon):
+    material = image_material("Painted", halves("source"))
+    obj = sphere(material=material)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    copy = obj.material_slots[0].material
+    # another object shows the copy through a Set Material node of its own modifier
+    tree = bpy.data.node_groups.new("Paint it", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    set_material = tree.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = copy
+    tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], set_material.inputs["Geometry"])
+    tree.links.new(set_material.outputs["Geometry"], tree.nodes.new("NodeGroupOutput").inputs[0])
+    other = sphere("Other", location=(3.0, 0.0, 0.0))
+    other.modifiers.new("Paint it", "NODES").node_group = tree
+    bpy.context.view_layer.objects.active = obj
+    addon.time = 0.004
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["materials"]["Painted_stylized"] == before["materials"]["Painted_stylized"]
+    assert after["images"]["Ball_stylized"] == before["images"]["Ball_stylized"]
+    assert obj.material_slots[0].material.name == "Painted_stylized.001"
+    assert stylized_image(obj).name == "Ball_stylized.001"
+
+
+@pytest.mark.parametrize("colour", ["image", "procedural"])
+def test_a_copy_whose_original_node_was_deleted_reads_its_original_again(addon, colour):
+    material = image_material("Painted", halves("source")) if colour == "image" else procedural_material()
+    obj = sphere(material=material)
+    addon.time = 0.004   # a filter that shows when it runs on its own result
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    first = pixels(stylized_image(obj)).copy()
+    copy = obj.material_slots[0].material
+    tree = copy.node_tree
+    tree.nodes.remove(next(n for n in tree.nodes if n.type in ("TEX_IMAGE", "TEX_CHECKER") and n.name != "cp_stylize"))
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    # the original's colours again, not the last result's: the same settings give the same image
+    assert changed_paths(before, snapshot()) == []
+    np.testing.assert_array_equal(pixels(stylized_image(obj)), first)
+
+
+def _edit(image, how, tmp_path):
+    """Edit a result image as a user would; returns it (reloaded after a save and reopen)."""
+    px = pixels(image).copy()
+    rgba = np.ones(px.shape[:2] + (4,), np.float32)
+    rgba[..., :3] = px
+    rgba[100:200, 100:200, :3] = (1.0, 1.0, 0.0)     # a yellow square
+    if how == "made before results had digests":
+        del image["cp_stylize_digest"]
+        return image
+    if how == "resized":
+        image.scale(256, 256)
+        return image
+    image.pixels.foreach_set(rgba.ravel())
+    if how == "painted":
+        assert image.is_dirty
+        return image
+    image.pack()                                      # Image > Pack: no longer dirty
+    assert not image.is_dirty
+    if how == "painted, packed, saved and reopened":
+        name = image.name
+        save_blend(tmp_path)
+        bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "scene.blend"))
+        image = bpy.data.images[name]
+        bpy.context.view_layer.objects.active = bpy.data.objects["Ball"]
+    return image
+
+
+@pytest.mark.parametrize("how", ["painted", "painted and packed", "painted, packed, saved and reopened", "resized",
+                                 "made before results had digests"])
+def test_an_edited_result_is_kept_by_the_next_run(addon, capfd, tmp_path, how):
+    from blender_state import pixel_hash
+
+    obj = sphere(material=image_material("Painted", halves("source")))
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    edited = _edit(stylized_image(obj), how, tmp_path)
+    obj = bpy.data.objects["Ball"]
+    edited_hash = pixel_hash(edited)
+    before = snapshot()
+    kind, message = run_report(capfd)
+    after = snapshot()
+    why = ("may have been edited (it was made before results remembered their pixels)"
+           if how == "made before results had digests" else "was edited after its run")
+    note = f"; the earlier result 'Ball_stylized' {why}, so it is kept, with a fake user so that saving keeps it"
+    assert kind == "Warning" and re.fullmatch(report_pattern("Ball", "Ball_stylized.001", note), message), message
+    assert changed_paths(before, after) == ["counts.images", "images.Ball_stylized", "images.Ball_stylized.001",
+                                            "materials.Painted_stylized.nodes"]
+    kept = bpy.data.images["Ball_stylized"]
+    assert pixel_hash(kept) == edited_hash and kept.use_fake_user
+    assert stylized_image(obj).name == "Ball_stylized.001"
+    # saving keeps it (with its paint packed, as File > Save offers for modified images)
+    if kept.is_dirty:
+        kept.pack()
+    save_blend(tmp_path, "after.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "after.blend"))
+    assert pixel_hash(bpy.data.images["Ball_stylized"]) == edited_hash
+
+
+def test_an_unedited_result_is_replaced_after_a_save_and_reopen(addon, capfd, tmp_path):
+    obj = sphere(material=image_material("Painted", halves("source")))
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    save_blend(tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "scene.blend"))
+    bpy.context.view_layer.objects.active = obj = bpy.data.objects["Ball"]
+    before = snapshot()
+    kind, message = run_report(capfd)
+    assert kind == "Info" and re.fullmatch(report_pattern("Ball", "Ball_stylized"), message), message
+    assert changed_paths(before, snapshot()) == []   # the same settings: the same image, under the same name
+    assert [i.name for i in bpy.data.images] == ["Ball_stylized", "source"]
+
+
+# -- 15. shared meshes, UV maps, and what the bake sees ------------------------------------------------
+
+
+def _twin(obj, how):
+    """Another object 'Twin' that uses ``obj``'s mesh, with an image material of its own at object level."""
+    if how == "linked duplicate":
+        twin = obj.copy()
+        bpy.context.collection.objects.link(twin)
+    else:   # Link Object Data (Ctrl+L) onto an object of another scene
+        other = bpy.data.scenes.new("Other scene")
+        bpy.ops.mesh.primitive_cube_add()
+        twin = bpy.context.active_object
+        bpy.context.collection.objects.unlink(twin)
+        other.collection.objects.link(twin)
+        twin.data = obj.data
+    twin.name = "Twin"
+    twin.location.x = 3.0
+    twin.material_slots[0].link = "OBJECT"
+    twin.material_slots[0].material = image_material("TwinMat", halves("twin"))
+    bpy.context.view_layer.objects.active = obj
+    return twin
+
+
+@pytest.mark.parametrize("how", ["linked duplicate", "object data linked in another scene"])
+def test_a_mesh_without_uvs_shared_with_another_object_is_refused_before_the_run(addon, monkeypatch, how):
+    obj = _bare_sphere_with_material()
+    _twin(obj, how)
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        "'Ball' has no usable UV map for the result (it has none) and cannot get a new one: its mesh 'Sphere' is "
+        "shared with 'Twin', and a new UV map would become the render UV map there too, changing how it renders: "
+        "give 'Ball' its own mesh first (Object > Relations > Make Single User > Object & Data), or add a UV map to "
+        "the mesh")
+
+
+def overlapping_uvs(obj, name="UVMap"):
+    """Fold the right half of ``obj``'s UV map ``name`` over its left half (unusable for a result)."""
+    mesh = obj.data
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    mesh.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    polygon = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    centre = np.bincount(polygon, uv[:, 0]) / np.bincount(polygon)
+    right = centre[polygon] > 0.5
+    uv[right, 0] = 1.0 - uv[right, 0]
+    mesh.uv_layers[name].data.foreach_set("uv", uv.ravel())
+
+
+def test_a_shared_mesh_with_unusable_uvs_gets_a_map_its_twin_does_not_render(addon):
+    obj = sphere(material=node_material("Flat"))
+    overlapping_uvs(obj)
+    twin = _twin(obj, "linked duplicate")
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["UVMap", "cp_stylize_atlas"]
+    assert after["meshes"]["Sphere"]["uv_render"] == before["meshes"]["Sphere"]["uv_render"] == "UVMap"
+    assert after["objects"]["Twin"] == before["objects"]["Twin"]
+    assert after["materials"]["TwinMat"] == before["materials"]["TwinMat"]
+    # a second run, on the twin, reads through the map the first one wrote, and rewrites nothing
+    uv = np.empty(2 * len(obj.data.loops), np.float32)
+    obj.data.uv_layers["cp_stylize_atlas"].data.foreach_get("uv", uv)
+    bpy.context.view_layer.objects.active = twin
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    again = np.empty_like(uv)
+    obj.data.uv_layers["cp_stylize_atlas"].data.foreach_get("uv", again)
+    np.testing.assert_array_equal(again, uv)
+    assert twin.material_slots[0].material.node_tree.nodes["cp_stylize UV"].uv_map == "cp_stylize_atlas"
+
+
+def _procedural_on_uvs(material):
+    """Feed ``material``'s checker from the UV output of a Texture Coordinate node."""
+    tree = material.node_tree
+    checker = next(n for n in tree.nodes if n.type == "TEX_CHECKER")
+    checker.inputs["Color1"].default_value = (*RED, 1.0)
+    checker.inputs["Color2"].default_value = (*BLUE, 1.0)
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], checker.inputs["Vector"])
+    return material
+
+
+def test_a_procedural_on_uvs_of_a_mesh_without_uvs_is_baked_as_the_renderer_shows_it(addon):
+    from cp_stylize.texture import linear_to_srgb
+
+    obj = sphere(material=_procedural_on_uvs(procedural_material()))
+    remove_uvs(obj)
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == ["cp_stylize_atlas"]   # the bake's temporary maps are gone
+    assert after["materials"]["Checker"] == before["materials"]["Checker"]
+    # without UV maps the renderer reads UV (0, 0, 0), where the checker shows its second colour, everywhere
+    points, colours = texel_points(obj, stylized_image(obj), uv_name="cp_stylize_atlas")
+    assert len(colours) > 1000 and near(colours, linear_to_srgb(np.array(BLUE)), tol=0.03).all()
+
+
+def eight_unusable_uv_maps(obj):
+    while len(obj.data.uv_layers) < 8:
+        obj.data.uv_layers.new(name=f"UV{len(obj.data.uv_layers)}")
+    for layer in obj.data.uv_layers:
+        overlapping_uvs(obj, layer.name)
+
+
+@pytest.mark.parametrize("colour", ["image", "procedural"])
+def test_a_mesh_at_the_limit_of_uv_maps_is_refused_before_the_run(addon, monkeypatch, colour):
+    obj = sphere(material=image_material("Painted", halves("source")) if colour == "image" else procedural_material())
+    eight_unusable_uv_maps(obj)
+    message = _refused_before_the_band_is_built(monkeypatch)
+    assert re.fullmatch(r"'Ball' has no usable UV map for the result \(UV triangles overlap at [0-9]+ texel\(s\)\) "
+                        r"and cannot get a new one: its mesh 'Sphere' already has 8 UV maps, Blender's limit: remove "
+                        r"one it does not need \(Object Data properties > UV Maps\) and press Stylize again",
+                        message), message
+
+
+def test_a_mesh_at_the_limit_of_uv_maps_with_a_usable_one_runs(addon):
+    obj = sphere(material=procedural_material())
+    while len(obj.data.uv_layers) < 8:
+        obj.data.uv_layers.new(name=f"UV{len(obj.data.uv_layers)}")
+    before = snapshot()
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    after = snapshot()
+    assert after["meshes"]["Sphere"]["uv_maps"] == before["meshes"]["Sphere"]["uv_maps"]
+    assert stylized_image(obj).name == "Ball_stylized"
+
+
+def _corrupt_image(tmp_path, packed):
+    """An image 'good' whose file (or packed file) holds bytes that are not an image."""
+    image = halves("good", pack=False)
+    path = tmp_path / "good.png"
+    image.filepath_raw = str(path)
+    image.file_format = "PNG"
+    image.save()
+    path.write_bytes(b"\\x89PNG\\r\\n\\x1a\\nthis is not a png" * 10)
+    if packed:
+        image.pack(data=path.read_bytes(), data_len=len(path.read_bytes()))
+        path.unlink()
+    image.reload()
+    return image
+
+
+@pytest.mark.parametrize("case", ["one NaN UV", "corrupt file", "corrupt packed file"])
+def test_bad_uvs_and_unreadable_images_are_named_before_the_run(addon, tmp_path, monkeypatch, case):
+    if case == "one NaN UV":
+        obj = sphere(material=image_material("Painted", halves("source")))
+        obj.data.uv_layers["UVMap"].data[5].uv = (float("nan"), 0.5)
+        message = ("the UV map 'UVMap' of 'Ball' has 1 corner whose UV is not a finite number, and material 'Painted' "
+                   "reads the image 'source' through it: unwrap it again (UV > Unwrap in Edit Mode), or fix those "
+                   "corners, and press Stylize again")
+    else:
+        sphere(material=image_material("Painted", _corrupt_image(tmp_path, case == "corrupt packed file")))
+        message = (f"image 'good': its file {str(tmp_path / 'good.png')!r} could not be read (it is damaged, or not "
+                   "an image Blender can open): replace the file, or choose another image" if case == "corrupt file"
+                   else "image 'good': its packed file could not be read (it is damaged, or not an image Blender can "
+                        "open): replace it (Image > Replace), or choose another image")
+    assert _refused_before_the_band_is_built(monkeypatch) == message
+
+
 # -- 12. messages that name the real cause ---------------------------------------------------------
 
 
@@ -698,7 +1260,7 @@ def test_edit_mode_is_refused_by_the_poll_with_a_reason(addon):
 @pytest.mark.parametrize("text, message", [
     ('mode = "ced"\nspacing = 5.0\n', "spacing must lie in [0.002, 0.1], got 5.0"),
     ('mode = "ced"\nT = 1000.0\n', "T must lie in [1e-06, 0.1], got 1000.0"),
-    ('mode = "ced"\n[params]\nrho = 3.0\n', "rho must lie in [0, 0.05], got 3.0"),
+    ('mode = "ced"\n[params]\nrho = 3.0\n', "[params] rho must lie in [0, 0.05], got 3.0"),
 ])
 def test_presets_keep_the_panels_limits(addon, tmp_path, text, message):
     sphere(material=image_material("Painted", halves("source")))

@@ -309,7 +309,7 @@ def _vector_attribute(obj, name, vector, domain="POINT"):
 
 
 def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
-    from cp_stylize.blender import stylize
+    from cp_stylize.blender import meshdata, stylize
 
     obj = _suzanne(image_material("Painted", _warm_blobs()))
     addon.quality, addon.spacing = "CUSTOM", 0.03
@@ -325,8 +325,8 @@ def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
         stylize.prepare(obj, addon.to_settings())
     addon.direction_attribute = "comb"
     job = stylize.prepare(obj, addon.to_settings())
-    # read at every triangle corner, turned with the object into world space (the mesh's space in the core)
-    world = np.array(obj.matrix_world)[:3, :3] @ np.array([0.0, 0.0, 2.0])
+    # read at every triangle corner, stretched as the mesh is in the core: the world matrix without its rotation
+    world = meshdata.shape_frame(obj.matrix_world) @ np.array([0.0, 0.0, 2.0])
     assert job.mesh.directions.shape == (len(job.mesh.triangles), 3, 3)
     np.testing.assert_allclose(job.mesh.directions.reshape(-1, 3), np.tile(world, (3 * len(job.mesh.triangles), 1)),
                                atol=1e-6)

@@ -1,0 +1,64 @@
+"""The estimate's time factor: measured once, kept, read back on the same computer only."""
+
+import json
+
+import pytest
+
+from cp_stylize import calibration
+
+
+@pytest.fixture
+def fresh(monkeypatch):
+    """No factor kept in memory, and a count of the measurements made."""
+    monkeypatch.setattr(calibration, "_speed", {})
+    made = []
+    monkeypatch.setattr(calibration, "measure", lambda: made.append(1) or 2.5 * calibration.REFERENCE_SECONDS)
+    return made
+
+
+def test_the_factor_is_measured_once_and_kept_in_its_file(fresh, tmp_path):
+    path = tmp_path / "user" / "calibration.json"
+    assert calibration.machine_speed(path) == 2.5 and len(fresh) == 1
+    kept = json.loads(path.read_text())
+    assert kept["seconds"] == 2.5 * calibration.REFERENCE_SECONDS and kept["machine"] == calibration._machine()
+    calibration._speed.clear()                         # a new session reads the file, and measures nothing
+    assert calibration.machine_speed(path) == 2.5 and len(fresh) == 1
+    assert calibration.machine_speed() == 2.5 and len(fresh) == 2      # in memory only: measured here once
+    assert calibration.machine_speed() == 2.5 and len(fresh) == 2
+
+
+@pytest.mark.parametrize("text", ["not json", '{"seconds": -1}', '[1, 2]',
+                                  '{"seconds": 0.5, "machine": {"node": "elsewhere"}}'])
+def test_a_file_that_cannot_be_used_is_measured_again(fresh, tmp_path, text):
+    path = tmp_path / "calibration.json"
+    path.write_text(text)
+    assert calibration.machine_speed(path) == 2.5 and len(fresh) == 1
+    assert json.loads(path.read_text())["seconds"] == 2.5 * calibration.REFERENCE_SECONDS
+
+
+def test_a_folder_that_cannot_be_written_keeps_the_factor_in_memory(fresh, tmp_path):
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    assert calibration.machine_speed(blocked / "calibration.json") == 2.5   # its folder is a file
+    assert not (blocked / "calibration.json").exists()
+
+
+def test_the_factor_stays_within_its_limits(monkeypatch):
+    monkeypatch.setattr(calibration, "_speed", {})
+    monkeypatch.setattr(calibration, "measure", lambda: 1000.0)
+    assert calibration.machine_speed() == calibration.SPEED_LIMITS[1]
+
+
+def test_the_job_is_measured_in_processor_time():
+    seconds = calibration.measure(repeat=1)
+    assert 0 < seconds < 10
+
+
+def test_the_estimate_scales_its_time_by_the_factor():
+    from cp_stylize.pipeline import estimate_run
+    from cp_stylize.presets import StylizeSettings
+
+    settings = StylizeSettings(mode="eed", T=1e-4, spacing=0.01)
+    slow, nbytes = estimate_run(100_000, settings, triangles=10_000, speed=1.7)
+    plain, same = estimate_run(100_000, settings, triangles=10_000)
+    assert slow == pytest.approx(1.7 * plain) and nbytes == same
