@@ -6,8 +6,9 @@ the hues say: a grey sky and a yellow road marking of the same tone would
 take the same colour.  :func:`map_to_palette` works in OKLab
 (:mod:`cp_stylize.oklab`) and weighs both:
 
-- **tone**: each colour's lightness rank among all the colours, so that the
-  picture's tones spread over the palette's whatever its exposure; each
+- **tone**: each colour's lightness rank among all the colours
+  (:func:`tone_ranks`), so that the picture's tones spread over the
+  palette's whatever its exposure; each
   palette colour takes the share of the ranks its weight asks for, and the
   lightness follows the palette's own at that rank;
 - **hue**: where a colour and a palette colour both have a hue (a chroma
@@ -25,12 +26,11 @@ the picture's hues in the palette's tones, at 1 the picture's colours.
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import rankdata
 
 from .oklab import from_oklab, to_oklab
 from .sparse import map_parallel
 
-__all__ = ["map_to_palette", "palette_noise", "check_palette", "GREY"]
+__all__ = ["map_to_palette", "tone_ranks", "palette_noise", "palette_distance", "check_palette", "GREY"]
 
 #: Chroma (OKLab) below which a colour's hue is not trusted: a grey's hue is noise.
 GREY = 0.04
@@ -49,6 +49,10 @@ TURN_GREY = 0.25
 #: The lightness of the result: this share from the palette's lightness at the colour's tone rank
 #: (a smooth ramp that keeps the picture's tonal detail), the rest from the chosen colours.
 TONE_KEEP = 0.6
+#: How sharply the palette colours that fit best win, for the lightness and for the hue and chroma (the
+#: fit's exponent per unit of squared distance).
+SOFT = 4.0
+SHARP = 16.0
 #: Colours mapped at once.
 _CHUNK = 1 << 16
 
@@ -65,6 +69,37 @@ def check_palette(palette, weights=None):
             or weights.sum() <= 0:
         raise ValueError(f"palette weights must be {len(palette)} non-negative numbers, not all zero")
     return palette[:, :3], weights / weights.sum()
+
+
+#: Lightness bins of :func:`tone_ranks`, and the most ranks a bin may take, in multiples of an even share.
+TONE_BINS = 256
+TONE_SLOPE = 4.0
+
+
+def tone_ranks(lightness):
+    """Each lightness's rank (M,) in [0, 1] among all: an equalised histogram whose slope is limited.
+
+    The ranks spread the picture's tones over [0, 1] whatever its exposure
+    (histogram equalisation), but no bin of :data:`TONE_BINS` takes more
+    than :data:`TONE_SLOPE` times an even share of the ranks (the rest is
+    spread evenly, as contrast-limited equalisation does), and ranks are
+    interpolated within a bin: nearly equal lightnesses get nearly equal ranks,
+    so a flat or slowly graded region keeps one tone instead of splitting
+    into the palette's far colours.
+    """
+    lightness = np.clip(np.asarray(lightness, dtype=np.float64), 0.0, 1.0)
+    counts = np.bincount(np.minimum((lightness * TONE_BINS).astype(np.int64), TONE_BINS - 1),
+                         minlength=TONE_BINS).astype(np.float64)
+    if counts.sum() == 0:
+        return lightness
+    share = counts / counts.sum()
+    for _ in range(8):                          # clip, and spread the excess evenly; a few rounds settle it
+        limit = TONE_SLOPE / TONE_BINS
+        excess = np.maximum(share - limit, 0.0).sum()
+        share = np.minimum(share, limit) + excess / TONE_BINS
+    edges = np.concatenate([[0.0], np.cumsum(share)])
+    edges /= edges[-1]
+    return np.interp(lightness, np.linspace(0.0, 1.0, TONE_BINS + 1), edges)
 
 
 def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
@@ -97,7 +132,7 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
     lab_palette, weights = lab_palette[order], weights[order]
     centres = np.cumsum(weights) - weights / 2                    # each colour's share of the ranks
     lab = to_oklab(colours[:, :3])
-    ranks = (rankdata(lab[:, 0]) - 0.5) / max(len(lab), 1)
+    ranks = tone_ranks(lab[:, 0])
     out = np.empty((len(colours), 3))
 
     def chunk(s):
@@ -123,9 +158,14 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     # distance in hue: of the unit hue vectors, where both have a hue
     cos = (lab[:, 1:] @ lab_palette[:, 1:].T) / np.maximum(chroma[:, None] * palette_chroma[None, :], 1e-12)
     d2 = tone**2 + hued[:, None] * palette_hued[None, :] * (2.0 - 2.0 * cos) / HUE_REACH**2
-    fit = np.exp(-4.0 * (d2 - d2.min(axis=1, keepdims=True))) * weights[None, :]
-    fit /= fit.sum(axis=1, keepdims=True)
-    mix = fit @ lab_palette
+    # the lightness blends softly between colours that fit alike; the hue and chroma come from a far
+    # sharper choice, so that between a blue and a yellow of one tone the blend is not their grey
+    best = d2 - d2.min(axis=1, keepdims=True)
+    mix = np.empty_like(lab)
+    for sharpness, channels in ((SOFT, slice(0, 1)), (SHARP, slice(1, 3))):
+        fit = np.exp(-sharpness * best) * weights[None, :]
+        fit /= fit.sum(axis=1, keepdims=True)
+        mix[:, channels] = fit @ lab_palette[:, channels]
     ramp = np.interp(ranks, centres, lab_palette[:, 0])          # the palette's lightness at the rank
     lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp
     # fidelity: the picture's hue first (full at 0.5), then its lightness and chroma
@@ -137,11 +177,23 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
                             (1.0 - fidelity) * ab + fidelity * lab[:, 1:]])
 
 
+#: In :func:`palette_distance`, a difference of hue and chroma counts this many times a difference of lightness.
+HUE_DISTANCE = 2.0
+
+
+def palette_distance(a, b):
+    """The distance between OKLab colours ``a`` and ``b`` (broadcast, ..., 3) that picks a colour's neighbours in a
+    palette: lightness, and :data:`HUE_DISTANCE` times hue and chroma (so that a dull yellow's neighbours
+    are the palette's yellows and ochres, not a blue of its tone)."""
+    d = np.asarray(a) - np.asarray(b)
+    return np.sqrt(d[..., 0] ** 2 + HUE_DISTANCE**2 * (d[..., 1] ** 2 + d[..., 2] ** 2))
+
+
 def palette_noise(colours, fraction, palette, weights=None, *, spread=0.1, seed=0):
     """A random ``fraction`` of the colours (M, 3) replaced by a palette colour near their own.
 
-    Each chosen colour takes one of the palette colours nearest to it in
-    OKLab, at random among the nearest ``1 + round(spread * (K - 1))`` of the
+    Each chosen colour takes one of the palette colours nearest to it
+    (:func:`palette_distance`), at random among the nearest ``1 + round(spread * (K - 1))`` of the
     palette's K (``spread`` 0: always the nearest; 1: any).  The noise keeps
     the picture's tones and hues; the filter then draws it out into strokes.
     """
@@ -162,7 +214,7 @@ def palette_noise(colours, fraction, palette, weights=None, *, spread=0.1, seed=
 
     def chunk(s):
         part = slice(s, s + _CHUNK)
-        distance = np.linalg.norm(to_oklab(colours[chosen[part], :3])[:, None, :] - lab_palette[None], axis=2)
+        distance = palette_distance(to_oklab(colours[chosen[part], :3])[:, None, :], lab_palette[None])
         nearest[part] = np.argsort(distance, axis=1, kind="stable")[:, :k]
 
     map_parallel(chunk, range(0, len(chosen), _CHUNK))

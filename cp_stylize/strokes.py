@@ -38,7 +38,7 @@ from scipy.spatial import cKDTree
 
 from .oklab import from_oklab, to_oklab
 from .arrays import expand_runs
-from .palette import check_palette
+from .palette import check_palette, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
 
@@ -57,7 +57,7 @@ DETAIL = 0.04
 #: gone at twice.
 CLIP = 0.2
 #: Each dab's length varies by this share about the brush's.
-LENGTH_SPREAD = 0.15
+LENGTH_SPREAD = 0.12
 #: Swirls (:class:`Swirls`) are this many dab lengths across.
 SWIRL_SIZE = 4.0
 #: Of the height a later dab paints over, this share is scraped away.
@@ -326,10 +326,11 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
 
 def _jittered(colours, jitter, lab_palette, rng, pull=1.0):
     """sRGB colours (n, 3), each moved by up to ``jitter * pull`` towards one of the three palette colours
-    nearest to it, and its lightness by a little noise."""
+    nearest to it (:func:`cp_stylize.palette.palette_distance`: its neighbours in hue first), and its
+    lightness by a little noise."""
     lab = to_oklab(colours)
     if jitter > 0 and lab_palette is not None:
-        near = np.argsort(np.linalg.norm(lab[:, None, :] - lab_palette[None], axis=2), axis=1)[:, :3]
+        near = np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
         pick = near[np.arange(len(lab)), rng.integers(0, near.shape[1], len(lab))]
         lab += (jitter * pull * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
     lab[:, 0] += 0.06 * jitter * rng.standard_normal(len(lab))

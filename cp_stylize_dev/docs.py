@@ -15,7 +15,7 @@ BEGIN = "<!-- parameters: written by `python -m cp_stylize docs` from cp_stylize
 END = "<!-- end of parameters -->"
 README = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")
 
-UNITS = {"time": "time (length²)", "length": "length", "ratio": "ratio"}
+UNITS = {"time": "time (length²)", "length": "length", "ratio": "ratio", "count": "count"}
 
 
 def _number(value):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cp_stylize.oklab import hue_difference, to_oklab
-from cp_stylize.palette import map_to_palette, palette_noise
+from cp_stylize.palette import map_to_palette, palette_distance, palette_noise
 
 NIGHT = ["#0b1a3a", "#1d3b72", "#3c5fc0", "#6d8fd0", "#e6b12f", "#a9c3dd", "#f3d54e"]
 
@@ -30,16 +30,19 @@ def test_greys_take_the_palette_by_tone_darkest_to_darkest():
 
 
 def test_hues_keep_to_the_palette_colours_of_their_hue():
-    palette = _rgb(NIGHT)
+    from cp_stylize.presets import load_preset
+
+    starry = load_preset("starry_night")                  # its blues take most of the tones, its yellows the lights
+    palette, weights = np.array(starry.palette), starry.palette_weights
     # a picture of mid greys and a yellow of the same lightness: the grey is blue, the yellow yellow
     grey, yellow = np.array([0.55, 0.55, 0.55]), np.array([0.65, 0.55, 0.1])
     picture = np.vstack([np.tile(grey, (500, 1)), np.tile(yellow, (500, 1)), np.linspace(0, 1, 1000)[:, None] * [1, 1, 1]])
-    out = map_to_palette(picture, palette)
-    lab_blue, lab_yellow = to_oklab(palette[2]), to_oklab(palette[6])
+    out = map_to_palette(picture, palette, weights)
+    lab_blue, lab_yellow = to_oklab(palette[4]), to_oklab(palette[8])
     assert hue_difference(to_oklab(out[0]), lab_blue) < 30
     assert hue_difference(to_oklab(out[500]), lab_yellow) < 30
     # a red takes the palette's warmest colour, not a blue
-    red = map_to_palette(np.vstack([[[0.8, 0.15, 0.1]], picture]), palette)[0]
+    red = map_to_palette(np.vstack([[[0.8, 0.15, 0.1]], picture]), palette, weights)[0]
     assert hue_difference(to_oklab(red), lab_yellow) < 45
 
 
@@ -72,7 +75,23 @@ def test_palette_noise_replaces_the_share_asked_by_colours_near_their_own():
     out = palette_noise(picture, 0.4, palette, spread=0.0, seed=3)
     changed = np.any(out != picture, axis=1)
     assert abs(changed.mean() - 0.4) < 0.02
-    # spread 0: the nearest palette colour (OKLab) of each changed colour
-    distance = np.linalg.norm(to_oklab(picture[changed])[:, None] - to_oklab(palette)[None], axis=2)
+    # spread 0: the nearest palette colour (OKLab, hue first) of each changed colour
+    distance = palette_distance(to_oklab(picture[changed])[:, None], to_oklab(palette)[None])
     np.testing.assert_allclose(out[changed], palette[np.argmin(distance, axis=1)], atol=1e-6)
     np.testing.assert_array_equal(out, palette_noise(picture, 0.4, palette, spread=0.0, seed=3))   # seeded
+
+
+def test_tone_ranks_spread_the_tones_but_keep_a_flat_region_one_tone():
+    from cp_stylize.palette import tone_ranks
+
+    rng = np.random.default_rng(4)
+    spread = rng.random(100000) ** 3                       # a dark picture: ranks spread it over [0, 1]
+    ranks = tone_ranks(spread)
+    assert np.all(np.diff(ranks[np.argsort(spread)]) >= 0)
+    assert 0.25 < np.median(ranks) < 0.5                  # towards even, its slope limited (median: 0.125)
+    flat = 0.4 + 1e-6 * rng.standard_normal(100000)        # one colour, up to rounding
+    assert np.ptp(tone_ranks(flat)) < 1e-3
+    # half the picture in one flat tone: it takes no more than its share's limit of the ranks
+    mixed = np.concatenate([np.full(50000, 0.3), rng.random(50000)])
+    r = tone_ranks(mixed)
+    assert np.ptp(r[:50000]) == 0 and np.all(np.diff(np.sort(r)) <= 4.0 / 256 + 1e-9)

@@ -4,46 +4,43 @@ import numpy as np
 import pytest
 
 from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, parse_hex, save_preset
+from cp_stylize.strokes import LENGTH_SPREAD
 
-REQUIRED = {"starry_night", "starry_night_paper", "sunflower_vase", "fingerprint", "denoise_eed", "perona_malik", "gaussian_blur",
-            "hatching", "van_gogh_form"}
+REQUIRED = {"starry_night", "sunflower_vase", "van_gogh_form", "denoise_eed", "perona_malik", "gaussian_blur",
+            "hatching"}
+PAINTERLY = ("starry_night", "van_gogh_form", "sunflower_vase")
 
 
 def test_every_shipped_preset_loads():
     presets = builtin_presets()
     assert REQUIRED <= set(presets)
+    assert not {"starry_night_paper", "fingerprint"} & set(presets)    # the paper's figures, not looks
     for name in presets:
         settings = load_preset(name)
         assert settings.name and settings.description
 
 
-def test_starry_night_paper_follows_the_paper():
-    s = load_preset("starry_night_paper")
-    assert (s.mode, s.sigma, s.rho, s.alpha, s.b_rel, s.spacing) == ("ced", 1e-4, 5e-4, 1e-3, 1e-6, 0.008)
-    assert s.noise_fraction == pytest.approx(0.67) and s.noise_mapping == "random"
-    # about ten steps of the paper's 0.15 h^2
-    assert 9 <= s.T / (0.15 * s.spacing**2) <= 12
-    # mostly dark blues: blue dominates and the colours are dark in most of the weight
-    rgb, w = np.array(s.palette), np.array(s.palette_weights)
-    dark_blue = (rgb[:, 2] > rgb[:, 0]) & (rgb.mean(axis=1) < 0.45)
-    assert w[dark_blue].sum() > 0.6 * w.sum()
-    assert any(r > 0.9 and g > 0.7 and b < 0.4 for r, g, b in rgb)  # a star yellow
+@pytest.mark.parametrize("name", PAINTERLY)
+def test_the_painterly_presets_paint_strokes_three_to_five_times_longer_than_wide_with_relief(name):
+    s = load_preset(name)
+    assert (s.noise_mapping, s.detail, s.strokes) == ("tone", 0.0, 1.0)
+    low, high = 1 - LENGTH_SPREAD, 1 + LENGTH_SPREAD
+    assert 3.0 <= low * s.stroke_length / s.stroke_width and high * s.stroke_length / s.stroke_width <= 5.0
+    assert s.relief > 0 and s.contours > 0 and s.stroke_layers >= 2
 
 
-def test_starry_night_maps_the_pictures_tones_with_long_coherent_strokes():
-    s, paper = load_preset("starry_night"), load_preset("starry_night_paper")
-    assert (s.mode, s.noise_mapping, s.detail) == ("ced", "tone", 0.0)
-    assert s.rho >= 4 * paper.rho and s.T >= 3 * paper.T          # wider orientation, longer strokes
-    assert set(s.palette) <= set(paper.palette)                    # the painting's colours
+def test_the_painterly_presets_are_each_their_own_look():
+    starry, form, sunflowers = (load_preset(name) for name in PAINTERLY)
+    assert starry.swirl > 0 and form.swirl == sunflowers.swirl == 0            # only Starry Night swirls
+    assert form.stroke_direction == "min" and starry.stroke_direction == "texture"   # along the form
+    assert sunflowers.relief > starry.relief and sunflowers.stroke_width > starry.stroke_width   # thick, broad
+    assert len({starry.palette, form.palette, sunflowers.palette}) == 3
 
 
-def test_the_looks_along_the_form_follow_the_minimum_curvature():
-    hatching, van_gogh = load_preset("hatching"), load_preset("van_gogh_form")
+def test_hatching_draws_along_the_minimum_curvature():
+    hatching = load_preset("hatching")
     assert (hatching.mode, hatching.stroke_direction, hatching.ink > 0) == ("flow", "min", True)
     assert hatching.noise_fraction == 0                      # the texture keeps its tones: ink over it
-    starry = load_preset("starry_night")
-    assert (van_gogh.mode, van_gogh.stroke_direction) == ("ced", "min")
-    assert van_gogh.palette == starry.palette and van_gogh.noise_fraction == starry.noise_fraction
 
 
 def test_save_and_load_round_trip(tmp_path):
@@ -53,7 +50,9 @@ def test_save_and_load_round_trip(tmp_path):
     np.testing.assert_allclose(back.palette, s.palette, atol=1 / 255)
     assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
     assert (back.noise_mapping, back.noise_spread, back.detail) == (s.noise_mapping, s.noise_spread, s.detail)
-    assert (back.strokes, back.stroke_length, back.stroke_width) == (1.0, 0.2, 0.008)    # starry_night's [strokes]
+    for field in ("strokes", "stroke_length", "stroke_width", "stroke_layers", "stroke_jitter", "swirl", "relief",
+                  "fidelity", "contours"):
+        assert getattr(back, field) == getattr(s, field)
 
 
 def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_path):
@@ -79,14 +78,16 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "blur"', "mode must be one of ['gaussian', 'perona_malik', 'eed', 'ced', 'beltrami', 'flow'], got 'blur'"),
     ('mode = "ced"\nT = -1.0', "T must lie in [1e-06, 0.1], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
-                                "'detail', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', 'output']"),
+                                "'detail', 'direction', 'axis', 'attribute', 'contours', 'params', 'noise', 'strokes', "
+                                "'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',
      f"[noise] palette entry 1 must be {ENTRY}, got ['#12345', 1]"),
     ('mode = "ced"\ndirection = "up"', "direction must be one of ['texture', 'max', 'min', 'axis', 'attribute'], "
                                        "got 'up'"),
-    ('mode = "eed"\ndirection = "min"', "direction 'min' is for the modes ['ced', 'flow'], not 'eed'"),
+    ('mode = "eed"\ndirection = "min"', "direction 'min' is for the modes ['ced', 'flow'] and for brush strokes, "
+                                       "not 'eed' without strokes"),
     ('mode = "flow"\ndirection = "texture"', "mode 'flow' draws along a direction field: direction must be one of "
                                              "['max', 'min', 'axis', 'attribute'], not 'texture'"),
     ('mode = "ced"\naxis = [0, 0, 0]', "axis must be three finite numbers, not all zero, got [0, 0, 0]"),
@@ -97,11 +98,13 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\n[noise]\nmapping = "tone"', "noise needs a palette of at least one colour"),
     ('mode = "ced"\n[noise]\nmapping = "tone"\nspread = -1\npalette = ["#102040"]',
      "[noise] spread must lie in [0, 1], got -1"),
-    ('mode = "ced"\n[strokes]\nstrength = 1', "strokes are drawn in a palette's colours: they need a palette of at "
-                                              "least one colour"),
-    ('mode = "ced"\n[strokes]\nlenght = 0.1', "unknown key(s) ['lenght'] in [strokes]; known: strength, length, width"),
+    ('mode = "ced"\n[strokes]\nlenght = 0.1', "unknown key(s) ['lenght'] in [strokes]; known: strength, length, "
+                                              "width, layers, jitter, swirl, relief"),
     ('mode = "ced"\n[strokes]\nwidth = 0.5\n[noise]\npalette = ["#102040"]',
-     "[strokes] width must lie in [0.001, 0.1], got 0.5"),
+     "[strokes] width must lie in [0.003, 0.2], got 0.5"),
+    ('mode = "ced"\n[strokes]\nlayers = 2.5', "[strokes] layers must be a whole number in [1, 4], got 2.5"),
+    ('mode = "ced"\n[noise]\nfidelity = 2\npalette = ["#102040"]', "[noise] fidelity must lie in [0, 1], got 2"),
+    ('mode = "ced"\ncontours = "yes"', "contours must lie in [0, 1], got 'yes'"),
     ('mode = = "ced"', "not valid TOML: Invalid value (at line 1, column 8)"),
     ('# nothing but a comment\n', "the preset is empty: it holds no settings"),
 ])
@@ -132,7 +135,7 @@ WRONG_TYPES = [
     ('params = "x"', "params must be a table ([params] with sigma, rho, alpha, b_rel, beta, contrast, ink, "
                      "lambda_rel), got 'x'"),
     ('[params]\nrho = "wide"', "[params] rho must lie in [0, 0.05], got 'wide'"),
-    ('noise = 5', "noise must be a table ([noise] with fraction, mapping, spread, seed, palette), got 5"),
+    ('noise = 5', "noise must be a table ([noise] with fraction, mapping, spread, seed, fidelity, palette), got 5"),
     ('[noise]\nfraction = "half"', "[noise] fraction must lie in [0, 1], got 'half'"),
     ('[noise]\nmapping = 1', "[noise] mapping must be one of ['random', 'tone'], got 1"),
     ('[noise]\nspread = {a = 1}', "[noise] spread must lie in [0, 1], got {'a': 1}"),
@@ -147,10 +150,11 @@ WRONG_TYPES = [
     ('[noise]\npalette = [["#ff0000", "heavy"]]', f"[noise] palette entry 1 must be {ENTRY}, got ['#ff0000', 'heavy']"),
     ('[noise]\npalette = [[0.5, 2.0, 0.0]]', f"[noise] palette entry 1 must be {ENTRY}, got [0.5, 2.0, 0.0]"),
     ('[noise]\npalette = [5]', f"[noise] palette entry 1 must be {ENTRY}, got 5"),
-    ('strokes = [1]', "strokes must be a table ([strokes] with strength, length, width), got [1]"),
+    ('strokes = [1]', "strokes must be a table ([strokes] with strength, length, width, layers, jitter, swirl, "
+                      "relief), got [1]"),
     ('[strokes]\nstrength = "full"', "[strokes] strength must lie in [0, 1], got 'full'"),
     ('[strokes]\nlength = [0.1]', "[strokes] length must lie in [0.01, 1], got [0.1]"),
-    ('[strokes]\nwidth = false', "[strokes] width must lie in [0.001, 0.1], got False"),
+    ('[strokes]\nwidth = false', "[strokes] width must lie in [0.003, 0.2], got False"),
     ('output = 1024', "output must be a table ([output] with size, margin), got 1024"),
     ('[output]\nsize = 1024.5', "[output] size must be a whole number in [16, 8192], got 1024.5"),
     ('[output]\nsize = 100000', "[output] size must be a whole number in [16, 8192], got 100000"),
@@ -286,7 +290,8 @@ def test_names_that_cannot_be_saved_are_refused(tmp_path, name, message):
 
 
 @pytest.mark.parametrize("name, key", [
-    ("Starry Night Paper", "starry_night_paper_2"),        # a shipped key, another name
+    ("Sunflower Vase 2", "sunflower_vase_2"),
+    ("Sunflower-Vase", "sunflower_vase_2"),                 # a shipped key, another name
     ("Звёздная ночь", "звёздная_ночь"), ("日本", "日本"), ("CON", "con_"),
     ("../../evil", "evil"), ("a/b", "a_b"),
     ("y" * 64, "y" * 64), ("日" * 64, "日" * 40),
@@ -304,7 +309,7 @@ def test_a_key_means_one_file_everywhere(tmp_path):
     user = tmp_path / "starry_night.toml"     # made by hand, or by an older version: a shipped key
     save_preset(StylizeSettings(mode="gaussian", name="Starry Night"), user)
     assert find_preset("starry_night", [tmp_path]) == builtin_presets()["starry_night"]
-    assert load_preset("starry_night", [tmp_path]).mode == "ced"
+    assert load_preset("starry_night", [tmp_path]).strokes == 1.0
     paths = preset_paths([tmp_path])
     assert paths[str(user)] == str(user) and paths["starry_night"] == builtin_presets()["starry_night"]
     assert load_preset(str(user), [tmp_path]).mode == "gaussian"
