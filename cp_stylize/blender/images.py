@@ -97,9 +97,10 @@ def free_path(folder, stem, ext=".png"):
     return path
 
 
-def write_file(image, path):
-    """Save ``image`` as the PNG file ``path`` and point the image at it (relative to the .blend)."""
+def write_file(image, path, file_format="PNG"):
+    """Save ``image`` as the file ``path`` (``file_format``: PNG or OPEN_EXR) and point the image at it (relative
+    to the .blend)."""
     image.filepath_raw = path
-    image.file_format = "PNG"
+    image.file_format = file_format
     image.save()
     image.filepath_raw = bpy.path.relpath(path)

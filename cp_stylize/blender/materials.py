@@ -35,6 +35,9 @@ from .errors import StylizeError
 #: Name of the Image Texture node that holds the stylized image, and of its UV Map node.
 NODE = "cp_stylize"
 UV_NODE = "cp_stylize UV"
+#: The Image Texture node that holds the relief (the strokes' height), and the Bump node it feeds.
+RELIEF_NODE = "cp_stylize relief"
+BUMP_NODE = "cp_stylize bump"
 #: Custom property of :data:`NODE`: ``"<node name>/<output identifier>"`` of what fed the colour
 #: input before the stylized image did ("" if nothing was linked).
 SOURCE = "cp_stylize_source"
@@ -319,4 +322,85 @@ def wire(material, image, uv_name, changes):
             changes.link(tree, uv.outputs["UV"], tex.inputs["Vector"])
     elif uv_linked:
         changes.unlink(tree, tex.inputs["Vector"].links[0])
+    return previous
+
+
+def _node(tree, name, kind, changes, location):
+    """The node ``name`` of type ``kind`` a run made before, or a new one (recorded in ``changes``)."""
+    node = tree.nodes.get(name)
+    if node is not None and node.bl_idname == kind:
+        return node, False
+    node = changes.new_node(tree, kind)
+    node.name = node.label = name
+    node.location = location
+    return node, True
+
+
+def _normal_input(material):
+    """The Normal input of the shader whose colour a run sets, or None (a shader without one shows no relief)."""
+    socket = colour_input(material).node.inputs.get("Normal")
+    return socket if socket is not None and socket.enabled else None
+
+
+def wire_relief(material, image, uv_name, distance, changes):
+    """Show the relief ``image`` (a height, through the UV map ``uv_name``) as bumps of ``material``'s shader.
+
+    The image goes into the Image Texture node :data:`RELIEF_NODE`, whose
+    height feeds the Bump node :data:`BUMP_NODE` (``distance``: the height 1
+    in the object's units), whose normal feeds the shader's Normal input.
+    Whatever fed that input before (a normal map) now feeds the Bump node's
+    Normal, so it keeps working under the relief.  Nodes of an earlier run
+    are reused.  Every change is recorded in ``changes``.  Returns the image
+    the relief node showed before (None for a new node, or where the shader
+    has no Normal input and nothing is wired).
+    """
+    normal = _normal_input(material)
+    if normal is None:
+        return None
+    tree = material.node_tree
+    shader = normal.node
+    tex, made = _node(tree, RELIEF_NODE, "ShaderNodeTexImage", changes,
+                      (shader.location.x - 700, shader.location.y - 250))
+    previous = None if made else tex.image
+    changes.set(tex, "image", image)
+    changes.set(tex, "mute", False)
+    changes.set(tex, "interpolation", "Cubic")       # smooth slopes between texels: no stair-stepped bumps
+    uv = tree.nodes.get(UV_NODE)
+    vector = tex.inputs["Vector"]
+    if uv_name and uv is not None and uv.type == "UVMAP":
+        if not (vector.is_linked and vector.links[0].from_node == uv):
+            changes.link(tree, uv.outputs["UV"], vector)
+    elif vector.is_linked:
+        changes.unlink(tree, vector.links[0])
+    bump, _ = _node(tree, BUMP_NODE, "ShaderNodeBump", changes, (shader.location.x - 350, shader.location.y - 250))
+    changes.set(bump, "mute", False)
+    changes.set(bump.inputs["Strength"], "default_value", 1.0)
+    changes.set(bump.inputs["Distance"], "default_value", float(distance))
+    if not (bump.inputs["Height"].is_linked and bump.inputs["Height"].links[0].from_node == tex):
+        changes.link(tree, tex.outputs["Color"], bump.inputs["Height"])
+    feeding = normal.links[0].from_socket if normal.is_linked else None
+    if feeding is None or feeding.node != bump:
+        if feeding is not None:
+            changes.link(tree, feeding, bump.inputs["Normal"])
+        changes.link(tree, bump.outputs["Normal"], normal)
+    return previous
+
+
+def unwire_relief(material, changes):
+    """Take an earlier run's relief out of ``material``: what fed the Bump node's Normal feeds the shader's
+    Normal again, and the relief node shows no image.  Returns the image it showed (None if none)."""
+    tree = material.node_tree
+    tex = tree.nodes.get(RELIEF_NODE) if tree is not None else None
+    if tex is None or tex.type != "TEX_IMAGE":
+        return None
+    bump = tree.nodes.get(BUMP_NODE)
+    normal = _normal_input(material)
+    if bump is not None and normal is not None and normal.is_linked and normal.links[0].from_node == bump:
+        under = bump.inputs["Normal"]
+        if under.is_linked:
+            changes.link(tree, under.links[0].from_socket, normal)
+        else:
+            changes.unlink(tree, normal.links[0])
+    previous = tex.image
+    changes.set(tex, "image", None)
     return previous

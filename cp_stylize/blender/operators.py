@@ -139,7 +139,8 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
         reused = ", the last run's band reused" if "band" in job.reused else ""
         self.report({"WARNING"} if applied.kept else {"INFO"},
-                    f"stylized {job.object_name!r} into {applied.image!r}{where} in {result.seconds:.1f} s "
+                    f"stylized {job.object_name!r} into {applied.image!r}{where}"
+                    f"{f', its relief in {applied.relief!r}' if applied.relief else ''} in {result.seconds:.1f} s "
                     f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})"
                     f"{results.kept_note(applied.kept)}")
         return {"FINISHED"}

@@ -80,7 +80,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         layout = _split(self.layout)
         layout.prop(settings, "mode")
         obj = context.active_object
-        if settings.mode in DIRECTED_MODES:
+        if settings.mode in DIRECTED_MODES or settings.strokes > 0:
             layout.prop(settings, "direction")
             if settings.direction == "axis":
                 layout.prop(settings, "axis")
@@ -106,8 +106,27 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "detail")
 
 
-class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
-    bl_label = "Noise"
+class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
+    bl_label = "Paint"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+
+    def draw(self, context):
+        settings = context.scene.cp_stylize
+        layout = _split(self.layout)
+        layout.prop(settings, "strokes")
+        col = layout.column()
+        col.active = settings.strokes > 0
+        col.prop(settings, "stroke_width", text="Width")
+        col.prop(settings, "stroke_length", text="Length")
+        col.prop(settings, "stroke_layers")
+        col.prop(settings, "stroke_jitter")
+        col.prop(settings, "swirl")
+        col.prop(settings, "relief")
+        layout.prop(settings, "contours")
+
+
+class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
+    bl_label = "Palette"
     bl_parent_id = "VIEW3D_PT_cp_stylize"
     bl_options = {"DEFAULT_CLOSED"}
 
@@ -115,14 +134,12 @@ class VIEW3D_PT_cp_stylize_noise(_Sidebar, bpy.types.Panel):
         settings = context.scene.cp_stylize
         layout = _split(self.layout)
         layout.prop(settings, "noise_mapping")
+        if settings.noise_mapping == "tone":
+            layout.prop(settings, "fidelity")
         layout.prop(settings, "noise_fraction")
         if settings.noise_mapping == "tone":
             layout.prop(settings, "noise_spread")
         layout.prop(settings, "seed")
-        layout.prop(settings, "strokes")
-        if settings.strokes > 0:
-            layout.prop(settings, "stroke_length")
-            layout.prop(settings, "stroke_width")
         for index, item in enumerate(settings.palette):
             row = layout.row(align=True)
             row.prop(item, "colour", text="")
@@ -155,4 +172,5 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
             row.operator("cp_stylize.release", text="", icon="TRASH")
 
 
-classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_noise, VIEW3D_PT_cp_stylize_output)
+classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_palette,
+           VIEW3D_PT_cp_stylize_output)

@@ -20,7 +20,8 @@ from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS,
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
 #: Run parameters shown as sliders (shares from 0 to 1).
-FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes")
+FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes", "stroke_jitter", "swirl", "fidelity", "contours",
+           "relief")
 
 #: Property names that differ from the core's parameter names.
 PROPERTY_NAMES = {"T": "time"}
@@ -72,7 +73,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     mode: bpy.props.EnumProperty(name="Mode", items=[(f.name, f.label, f.description) for f in FILTERS.values()],
                                  default="ced", update=_mode_changed)
     direction: bpy.props.EnumProperty(
-        name="Stroke Direction", description="What the strokes of CED and Flow follow",
+        name="Stroke Direction", description="What the strokes of CED and Flow, and the brush strokes, follow",
         items=[(name, label, description) for name, (label, description) in DIRECTIONS.items()], default="texture")
     axis: bpy.props.FloatVectorProperty(
         name="Axis", description="The direction the strokes follow, in the object's space; projected onto the "
@@ -142,13 +143,13 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from ..presets import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
-        direction = self.direction if self.mode in DIRECTED_MODES else None
+        direction = self.direction if self.mode in DIRECTED_MODES or self.strokes > 0 else None
         # the axis where it is used or usable (a zeroed axis must not stop an attribute run), so a preset keeps it
         axis = {"axis": tuple(self.axis)} if direction == "axis" or any(self.axis) else {}
+        run = {name: getattr(self, PROPERTY_NAMES.get(name, name)) for name in RUN}
+        run["spacing"] = self.relative_spacing()
         return StylizeSettings(
-            mode=self.mode, T=self.time, spacing=self.relative_spacing(), noise_fraction=self.noise_fraction,
-            detail=self.detail, noise_mapping=self.noise_mapping, noise_spread=self.noise_spread,
-            strokes=self.strokes, stroke_length=self.stroke_length, stroke_width=self.stroke_width,
+            mode=self.mode, **run, noise_mapping=self.noise_mapping,
             palette=tuple(tuple(p.colour) for p in self.palette),
             palette_weights=tuple(p.weight for p in self.palette), seed=self.seed,
             image_size=int(self.image_size), name=self.preset_name, params=params,
@@ -181,22 +182,16 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     def _set_filter(self, settings):
         self.preset_name = settings.name
         self.mode = settings.mode
-        self.time = settings.T
+        for name in RUN:
+            setattr(self, PROPERTY_NAMES.get(name, name), getattr(settings, name))
         spacing = {v: k for k, v in QUALITY_SPACING.items()}.get(settings.spacing)
         self.quality = spacing or "CUSTOM"
-        self.spacing = settings.spacing
         for name, default in FILTERS[settings.mode].defaults.items():
             setattr(self, filter_property(settings.mode, name), settings.params.get(name, default))
         self.direction = settings.stroke_direction
         self.axis = settings.axis
         self.direction_attribute = settings.attribute
-        self.noise_fraction = settings.noise_fraction
-        self.detail = settings.detail
         self.noise_mapping = settings.noise_mapping
-        self.noise_spread = settings.noise_spread
-        self.strokes = settings.strokes
-        self.stroke_length = settings.stroke_length
-        self.stroke_width = settings.stroke_width
         self.seed = settings.seed
         self.palette.clear()
         weights = settings.palette_weights or (1.0,) * len(settings.palette)
@@ -226,9 +221,17 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 _OUTPUT = {"image_size", "image_name", "target", "storage", "memory_limit", "time_limit", "keep"}
 
 
+def _run_property(parameter):
+    """The property of a run parameter: a whole number for a count, else a float (a slider for shares)."""
+    if parameter.unit == "count":
+        return bpy.props.IntProperty(name=parameter.label, description=parameter.description,
+                                     default=int(parameter.default), min=int(parameter.minimum),
+                                     max=int(parameter.maximum))
+    return _float_property(parameter, **({"subtype": "FACTOR"} if parameter.name in FACTORS else {}))
+
+
 for _parameter in RUN.values():
-    CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _float_property(
-        _parameter, **({"subtype": "FACTOR"} if _parameter.name in FACTORS else {}))
+    CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _run_property(_parameter)
 for _mode, _filter in FILTERS.items():
     for _parameter in _filter.parameters:
         CPStylizeSettings.__annotations__[filter_property(_mode, _parameter.name)] = _float_property(

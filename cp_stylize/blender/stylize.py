@@ -104,6 +104,7 @@ class Applied:
     path: str | None                  # the file it was saved as
     materials: tuple                  # names of the materials that show it
     kept: tuple = ()                  # (name, edited) of the earlier results it replaced and kept (see results)
+    relief: str | None = None         # the relief image's name, where the run made one
 
 
 # -- what runs keep for the next ---------------------------------------------------------------
@@ -559,14 +560,20 @@ def _write_atlas_uvs(obj, loops, uvs, changes):
     return ATLAS_UV_NAME
 
 
-def _store(image, output, name, changes):
-    """Pack the image, or save it as a PNG next to the .blend under a name no file has."""
+#: File name endings of the formats results are saved in.
+EXTENSIONS = {"PNG": ".png", "OPEN_EXR": ".exr"}
+
+
+def _store(image, output, name, changes, file_format="PNG"):
+    """Pack the image, or save it (as a PNG, or an OpenEXR for heights) next to the .blend under a name no
+    file has."""
     if output.storage != "SAVE":
+        image.file_format = file_format         # what the packed file holds: a float relief stays float
         image.pack()
         return None
-    path = images.free_path(save_folder(), bpy.path.clean_name(name))
+    path = images.free_path(save_folder(), bpy.path.clean_name(name), EXTENSIONS[file_format])
     try:
-        images.write_file(image, path)
+        images.write_file(image, path, file_format)
     except (OSError, RuntimeError) as err:
         if os.path.exists(path):
             os.remove(path)
@@ -641,16 +648,32 @@ def _material_for(obj, index, output, changes, copies):
     return new
 
 
+#: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).
+RELIEF_THICKNESS = 0.25
+
+
+def relief_distance(obj, job):
+    """The Bump node's distance for ``job``'s relief on ``obj``: the height 1 in the object's own units."""
+    settings = job.settings
+    world_per_unit = job.result.spacing / settings.spacing          # world length of a unit of the core's frame
+    scale = abs(float(np.linalg.det(np.array(obj.matrix_world)[:3, :3]))) ** (1.0 / 3.0) or 1.0
+    return settings.relief * RELIEF_THICKNESS * settings.stroke_width * world_per_unit / scale
+
+
 def apply(job):
     """Write the result into the file as one transaction; returns :class:`Applied`.
 
     Raises StylizeError (with nothing changed) if the object was deleted,
     entered Edit Mode or changed during the run, or if saving fails.  The
     images the result replaces are removed or kept as :mod:`.results` says.
+    With a relief (the strokes' height), a second image ``<name>_relief``
+    feeds a Bump node under the shader (:func:`.materials.wire_relief`); a
+    run without one takes an earlier run's relief out again.
     """
     obj = _current_object(job)
     result, output = job.result, job.output
     name = output.image_name or f"{obj.name}_stylized"
+    relief_name = f"{name}_relief"
     replaced = results.Replaced()
     with Changes() as changes:
         uv_name = job.uv_name
@@ -659,13 +682,24 @@ def apply(job):
         image = changes.new_id(bpy.data.images, images.array_to_image(name, result.image))
         path = _store(image, output, name, changes)
         results.mark(image, obj)
+        relief = None
+        if result.height is not None:
+            relief = changes.new_id(bpy.data.images, images.array_to_image(
+                relief_name, result.height[..., None], colorspace="Non-Color", float_buffer=True))
+            _store(relief, output, relief_name, changes, file_format="OPEN_EXR")
+            results.mark(relief, obj)
         wired, copies = [], {}
         for index in job.slots:
             material = _material_for(obj, index, output, changes, copies)
             if material in wired:
                 continue
             replaced.add(materials.wire(material, image, uv_name, changes))
+            if relief is not None:
+                replaced.add(materials.wire_relief(material, relief, uv_name, relief_distance(obj, job), changes))
+            else:
+                replaced.add(materials.unwire_relief(material, changes))
             wired.append(material)
-        unused, kept = replaced.retire([image], changes)
-    results.remove(unused, [(image, name)])
-    return Applied(image=image.name, path=path, materials=tuple(m.name for m in wired), kept=tuple(kept))
+        unused, kept = replaced.retire([image] + ([relief] if relief is not None else []), changes)
+    results.remove(unused, [(image, name)] + ([(relief, relief_name)] if relief is not None else []))
+    return Applied(image=image.name, path=path, materials=tuple(m.name for m in wired), kept=tuple(kept),
+                   relief=None if relief is None else relief.name)
