@@ -42,6 +42,27 @@ def user_extensions():
     return os.path.realpath(bpy.utils.user_resource("EXTENSIONS"))
 
 
+#: The Starry Night preset's palette.
+STARRY_NIGHT = ("#0b1a3a", "#13294f", "#1d3b72", "#2a4f9a", "#3c5fc0", "#6d8fd0", "#e6b12f", "#a9c3dd", "#f3d54e",
+                "#f8ecaa")
+
+
+def _hue(rgb):
+    """The hue angle (degrees) of sRGB colours, in the opponent plane of a rough perceptual space."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    return np.degrees(np.arctan2(np.sqrt(3) * (rgb[:, 1] - rgb[:, 2]), 2 * rgb[:, 0] - rgb[:, 1] - rgb[:, 2]))
+
+
+def _hue_off_palette(rgb, palette):
+    """How far (degrees) each colour's hue lies from the nearest hue of the palette."""
+    d = np.abs(_hue(rgb)[:, None] - _hue(palette)[None, :]) % 360
+    return np.min(np.minimum(d, 360 - d), axis=1)
+
+
+def _source_pixels():
+    return np.asarray(bpy.data.images["Source"].pixels[:], np.float32).reshape(-1, 4)[:, :3]
+
+
 def _image(size=64):
     v, u = np.meshgrid(np.linspace(0, 1, size), np.linspace(0, 1, size), indexing="ij")
     rgba = np.ones((size, size, 4), np.float32)
@@ -95,7 +116,11 @@ def main(zip_path):
     photo = _sphere("Photo", image_material, -2.5)
     assert bpy.ops.object.cp_stylize(preset="starry_night", quality="PREVIEW") == {"FINISHED"}
     painted = _result(photo)
-    assert (painted[:, 2] > painted[:, 0]).mean() > 0.5, "Starry Night did not bring the painting's blues"
+    palette = np.array([[int(c[i:i + 2], 16) / 255 for i in (1, 3, 5)] for c in STARRY_NIGHT])
+    covered = painted.max(axis=1) > 0
+    off = _hue_off_palette(painted[covered], palette)
+    assert np.median(off) < 20 and np.median(_hue_off_palette(_source_pixels(), palette)) > 20, \
+        "Starry Night did not bring the painting's hues"
 
     checker_material, checker = _material("Checker", "ShaderNodeTexChecker")
     checker.inputs["Scale"].default_value = 6.0

@@ -59,11 +59,12 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     registered.palette.add()
     context = bpy.context
     log = []
-    for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_noise, panel.VIEW3D_PT_cp_stylize_output,
-                panel.CP_STYLIZE_MT_presets):
+    for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_paint, panel.VIEW3D_PT_cp_stylize_palette,
+                panel.VIEW3D_PT_cp_stylize_output, panel.CP_STYLIZE_MT_presets):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
     props = {name.removeprefix(mode + "_") for kind, name in log if kind == "prop"}  # the mode's own parameters
-    assert {"mode", "quality", "time"} <= props
+    assert {"mode", "quality", "time", "strokes", "stroke_width", "stroke_layers", "stroke_jitter", "swirl", "relief",
+            "contours", "noise_mapping"} <= props
     assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode in ("ced", "flow"))
     assert {p.name for p in FILTERS[mode].parameters} <= props
     assert ("operator", "object.cp_stylize") in log
@@ -116,18 +117,20 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
 
     monkeypatch.setattr(operators, "user_preset_dir", lambda create=False: str(tmp_path))
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
-    assert registered.mode == "ced" and registered.b_rel == pytest.approx(1e-6) and len(registered.palette) == 10
+    assert registered.mode == "gaussian" and len(registered.palette) == 10
     assert (registered.noise_mapping, registered.detail) == ("tone", 0.0)
-    assert (registered.strokes, registered.stroke_length) == (1.0, pytest.approx(0.2))
+    assert (registered.strokes, registered.stroke_length, registered.stroke_layers) == (1.0, pytest.approx(0.12), 3)
+    assert (registered.swirl, registered.relief, registered.contours) == pytest.approx((0.6, 0.6, 0.6))
     assert registered.quality == "STANDARD"  # the preset's spacing, 0.008
     registered.time = 3e-4
     assert bpy.ops.cp_stylize.preset_add(name="My Look") == {"FINISHED"}
     assert (tmp_path / "my_look.toml").exists() and "my_look" in operators.all_presets()
     assert bpy.ops.cp_stylize.preset_load(name="denoise_eed") == {"FINISHED"}
     assert bpy.ops.cp_stylize.preset_load(name="my_look") == {"FINISHED"}
-    assert registered.time == pytest.approx(3e-4) and registered.mode == "ced"
+    assert registered.time == pytest.approx(3e-4) and registered.mode == "gaussian"
     assert (registered.noise_mapping, registered.detail) == ("tone", 0.0)     # saved and loaded back
-    assert registered.to_settings().stroke_width == pytest.approx(0.008)
+    assert registered.to_settings().stroke_width == pytest.approx(0.03)
+    assert (registered.to_settings().swirl, registered.to_settings().stroke_layers) == (pytest.approx(0.6), 3)
     with pytest.raises(RuntimeError, match="not a user preset"):
         bpy.ops.cp_stylize.preset_remove(name="starry_night")
     assert bpy.ops.cp_stylize.preset_remove(name="my_look") == {"FINISHED"}

@@ -336,7 +336,7 @@ def test_a_failing_save_restores_everything(addon, tmp_path, monkeypatch):
     save_blend(tmp_path)
     addon.storage = "SAVE"
 
-    def fail(image, path):
+    def fail(image, path, file_format="PNG"):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(images, "write_file", fail)

@@ -94,8 +94,8 @@ BAD_PRESETS = [
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [[1, 2]]\n',
      f"[noise] palette entry 1 must be {ENTRY}, got [1, 2]"),
     ('mode = "ced"\nnoise = 5\n',
-     "noise must be a table ([noise] with fraction, mapping, spread, seed, palette), got 5"),
-    ('mode = "ced"\nstrokes = [1]\n', "strokes must be a table ([strokes] with strength, length, width), got [1]"),
+     "noise must be a table ([noise] with fraction, mapping, spread, seed, fidelity, palette), got 5"),
+    ('mode = "ced"\nstrokes = [1]\n', "strokes must be a table ([strokes] with strength, length, width, layers, jitter, swirl, relief), got [1]"),
     ('mode = "ced"\ndirection = "axis"\naxis = 5\n', "axis must be three finite numbers, not all zero, got 5"),
     ('name = 5\nmode = "eed"\n', "name must be text, got 5"),
     ('mode = "eed"\nparams = "x"\n', "params must be a table ([params] with sigma, rho, alpha, b_rel, beta, contrast, "
@@ -202,13 +202,13 @@ def test_a_shipped_presets_name_is_refused_and_a_key_means_one_file_everywhere(p
     # a user file with a shipped key (made by hand, or by an older version) hides nothing
     presets.mkdir(exist_ok=True)
     user = presets / "starry_night.toml"
-    save_preset(StylizeSettings(mode="gaussian", T=5e-4, name="Starry Night"), user)
+    save_preset(StylizeSettings(mode="eed", T=5e-4, name="Starry Night"), user)
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
-    assert addon.mode == "ced"                              # the shipped one, as the operator's preset= reads it
+    assert addon.mode == "gaussian"                         # the shipped one, as the operator's preset= reads it
     menu = preset_menu(operators.user_folders())
     assert ("starry_night", "Starry Night") in menu and (str(user), "Starry Night (starry_night.toml)") in menu
     assert bpy.ops.cp_stylize.preset_load(name=str(user)) == {"FINISHED"}
-    assert (addon.mode, addon.preset_key) == ("gaussian", str(user))
+    assert (addon.mode, addon.preset_key) == ("eed", str(user))
     assert error(bpy.ops.cp_stylize.preset_remove, name="starry_night") == (
         "'starry_night' is a shipped preset, not a user preset: it cannot be removed")
     sphere(material=image_material("Painted", halves("source")))
@@ -217,7 +217,7 @@ def test_a_shipped_presets_name_is_refused_and_a_key_means_one_file_everywhere(p
     monkeypatch.setattr(stylize, "prepare", lambda obj, settings, *a, **k: read.append(settings) or
                         real(obj, settings, *a, **k))
     assert bpy.ops.object.cp_stylize(preset="starry_night", quality="PREVIEW") == {"FINISHED"}
-    assert (read[0].mode, read[0].name) == ("ced", "Starry Night")
+    assert (read[0].mode, read[0].name, read[0].strokes) == ("gaussian", "Starry Night", 1.0)
 
 
 def test_a_preset_name_of_300_characters_is_refused_with_a_message(presets, addon):

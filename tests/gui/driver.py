@@ -158,11 +158,11 @@ def stylize_and_watch(act_at=None, action=None):
 def scenario_panel():
     """The sidebar's Stylize tab, with every panel open, for every mode."""
     panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
-    noise, output = panels.VIEW3D_PT_cp_stylize_noise, panels.VIEW3D_PT_cp_stylize_output
-    for cls in (output, noise):   # open the Noise sub-panel, which starts closed; the order stays
+    palette, output = panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output
+    for cls in (output, palette):   # open the Palette sub-panel, which starts closed; the order stays
         bpy.utils.unregister_class(cls)
-    noise.bl_options = set()
-    for cls in (noise, output):
+    palette.bl_options = set()
+    for cls in (palette, output):
         bpy.utils.register_class(cls)
     in_view3d(bpy.ops.cp_stylize.preset_load, name="starry_night")
     _, area, _, sidebar = view3d()
