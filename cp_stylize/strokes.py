@@ -195,7 +195,7 @@ class StrokeField:
             coherence = (mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)
             # a structure counts where it is coherent and among the stronger of the surface's
             confidence = (np.clip(coherence / 0.5, 0.0, 1.0)
-                          * np.clip(strength / max(float(np.quantile(strength, 0.6)), 1e-12), 0.0, 1.0))
+                          * np.clip(strength / max(float(np.quantile(strength, 0.75)), 1e-12), 0.0, 1.0))
             fields.append(cls(band, np.ascontiguousarray((q1 * c - q0 * s).T), confidence, strength))
         return fields
 
@@ -205,11 +205,17 @@ class StrokeField:
         ``field`` (N, 3) of the band, whose length is the confidence in it."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
+        none = np.linalg.norm(direction, axis=1) < 0.5
+        if none.any():                                   # the structure lies along the normal there: any tangent
+            direction[none] = _tangent(np.cross(normals[none], [0.577, 0.577, 0.577]) + [1e-3, 0.0, 0.0],
+                                       normals[none])
         confidence = self.confidence[nearest].astype(np.float64)
         if field is not None:
-            given = np.asarray(field[nearest], dtype=np.float64)
-            trust = np.clip(np.linalg.norm(given, axis=1), 0.0, 1.0)
-            direction = _blend(_tangent(given, normals), direction, trust, normals)
+            given = _tangent(np.asarray(field[nearest], dtype=np.float64), normals)
+            trust = np.clip(np.linalg.norm(np.asarray(field[nearest], dtype=np.float64), axis=1), 0.0, 1.0)
+            trust[np.linalg.norm(given, axis=1) < 0.5] = 0.0          # no direction there (a flat part)
+            given[trust == 0] = direction[trust == 0]
+            direction = _blend(given, direction, trust, normals)
         if swirls is not None and swirl > 0:
             direction = _blend(direction, swirls(points, normals), 1.0 - swirl * (1.0 - confidence), normals)
         return direction
@@ -333,7 +339,7 @@ def _jittered(colours, jitter, lab_palette, rng, pull=1.0):
         near = np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
         pick = near[np.arange(len(lab)), rng.integers(0, near.shape[1], len(lab))]
         lab += (jitter * pull * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
-    lab[:, 0] += 0.06 * jitter * rng.standard_normal(len(lab))
+    lab[:, 0] += 0.1 * jitter * rng.standard_normal(len(lab))
     return from_oklab(lab)
 
 

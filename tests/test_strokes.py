@@ -136,3 +136,15 @@ def test_painting_reports_progress_and_stops_when_told(sphere):
 
     with pytest.raises(KeyboardInterrupt):
         paint(dabs, texels, np.zeros((len(texels.points), 3)), progress=stop)
+
+
+def test_dabs_keep_a_direction_where_a_given_field_has_none(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = _stripes(band, [0, 0, 1])
+    brush = Brush(width=0.12, length=0.48, layers=1, seed=3)
+    nothing = np.zeros((band.size, 3))                          # a field of no confidence anywhere (a flat part)
+    dabs = place_dabs(mesh, band, colours, brush, texel=0.01, field=nothing)
+    np.testing.assert_allclose(np.linalg.norm(dabs.direction, axis=1), 1.0, atol=1e-9)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", dabs.direction, dabs.normal), 0.0, atol=1e-9)
+    plain = place_dabs(mesh, band, colours, brush, texel=0.01)
+    np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", dabs.direction, plain.direction)), 1.0, atol=1e-9)

@@ -1,0 +1,172 @@
+"""The painterly presets' gallery: each on Suzanne, the photo sphere and a city photograph, rendered with Cycles.
+
+Usage (the Python with the ``bpy`` module, from the checkout)::
+
+    python tools/gallery.py --out docs/gallery
+
+Each preset is loaded and run with the Stylize operator at Standard quality
+into a 1024 x 1024 image, as a user would, and the object rendered at 1024
+pixels: Suzanne (the demo's, two subdivision levels) and a UV sphere wearing
+Blender's forest photograph through their UVs, and a 2 x 1 frame wearing
+Blender's city photograph (buildings, a crane, road markings), seen straight
+on.  For each render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
+render) shows the strokes as they are; one more render of Suzanne under a
+raking light shows the relief.  ``gallery.jpg`` puts them side by side at a
+third of their size, a row a preset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Vector  # noqa: E402
+
+from cp_stylize.blender import images  # noqa: E402
+from cp_stylize_dev import demo, figures, scene  # noqa: E402
+
+PRESETS = ("starry_night", "van_gogh_form", "sunflower_vase")
+SUBJECTS = ("suzanne", "sphere", "city")
+SIZE = 1024
+#: The crop of each render at full size: (row, column) of its top left corner, as shares of the render.
+CROPS = {"suzanne": (0.22, 0.3), "sphere": (0.32, 0.32), "city": (0.05, 0.35)}
+CROP = 384
+
+
+def build(kind):
+    """A fresh scene with the subject wearing its photograph; returns the object and the render's size."""
+    if kind == "suzanne":
+        obj, _, _ = demo.build_scene()
+        return obj, (SIZE, SIZE)
+    scene.reset()
+    photo = "forest" if kind == "sphere" else "city"
+    material = scene.new_material("Gallery", images.array_to_image("gallery_photo", scene.photo_texture(photo)))
+    if kind == "sphere":
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
+        obj = bpy.context.active_object
+        bpy.ops.object.shade_smooth()
+        size = (SIZE, SIZE)
+    else:
+        bpy.ops.mesh.primitive_plane_add(size=1.0)
+        obj = bpy.context.active_object
+        obj.scale = (2.0, 1.0, 1.0)
+        size = (SIZE, SIZE // 2)
+    obj.name = kind.title()
+    obj.data.materials.append(material)
+    return obj, size
+
+
+def frame(kind, obj, raking=False):
+    """The camera and light for ``kind``: front views of the objects, the frame seen straight on."""
+    cam = bpy.context.scene.camera
+    key = bpy.data.objects["Key"]
+    if kind == "city":
+        cam.data.type = "ORTHO"
+        cam.data.ortho_scale = 2.0
+        cam.location = Vector((0.0, 0.0, 3.0))
+        cam.rotation_euler = (0.0, 0.0, 0.0)
+        key.rotation_euler = (math.radians(35), 0.0, math.radians(30))
+    else:
+        scene.frame_objects([obj], margin=0.62 if kind == "sphere" else 0.75)
+    if raking:   # a low light from the side: the paint's ridges cast their shading
+        key.rotation_euler = (math.radians(78), 0.0, math.radians(75))
+        key.data.energy = 4.0
+
+
+def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", log=print):
+    """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds."""
+    from cp_stylize.blender import register, unregister
+
+    obj, size = build(kind)
+    scene.setup_render(size, samples)
+    frame(kind, obj, raking)
+    start = time.perf_counter()
+    register()
+    try:
+        settings = bpy.context.scene.cp_stylize
+        bpy.ops.cp_stylize.preset_load(name=preset)
+        settings.quality, settings.image_size = quality, str(SIZE)
+        bpy.context.view_layer.objects.active = obj
+        result = bpy.ops.object.cp_stylize()
+        if result != {"FINISHED"}:
+            raise RuntimeError(f"{preset} on {kind}: the Stylize operator returned {result}")
+    finally:
+        unregister()
+    seconds = time.perf_counter() - start
+    settings = bpy.context.scene.render.image_settings
+    settings.file_format, settings.quality = "JPEG", 92
+    scene.render(path)
+    log(f"{kind:8s} {preset:15s} {seconds:6.1f} s  {path}")
+    return seconds
+
+
+def read(path):
+    """A rendered image as a float array (H, W, 3), row 0 at the top."""
+    image = bpy.data.images.load(path, check_existing=False)
+    try:
+        return images.image_to_array(image)[::-1, :, :3].astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def save_jpeg(path, pixels):
+    """Write a float image (H, W, 3), row 0 at the top, as a JPEG."""
+    h, w, _ = pixels.shape
+    image = bpy.data.images.new("gallery_out", w, h)
+    try:
+        rgba = np.ones((h, w, 4), np.float32)
+        rgba[..., :3] = np.clip(pixels[::-1], 0, 1)
+        image.pixels.foreach_set(rgba.ravel())
+        image.filepath_raw, image.file_format = path, "JPEG"
+        bpy.context.scene.render.image_settings.quality = 92
+        image.save()
+    finally:
+        bpy.data.images.remove(image)
+    return path
+
+
+def crop(path, kind):
+    """The 100 % crop of a render: CROP x CROP pixels at :data:`CROPS` of the render."""
+    pixels = read(path)
+    r, c = (int(share * n) for share, n in zip(CROPS[kind], pixels.shape[:2]))
+    return save_jpeg(path.replace(".jpg", "_crop.jpg"), pixels[r:r + CROP, c:c + CROP])
+
+
+def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
+    os.makedirs(out_dir, exist_ok=True)
+    rows = []
+    for preset in presets:
+        cells = []
+        for kind in subjects:
+            path = os.path.join(out_dir, f"{kind}_{preset}.jpg")
+            render(kind, preset, path, log=log)
+            crop(path, kind)
+            cells.append(figures.panel(read(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
+        rows.append(cells)
+    raking = os.path.join(out_dir, "relief_raking.jpg")
+    render("suzanne", "sunflower_vase", raking, raking=True, log=log)
+    crop(raking, "suzanne")
+    sheet = figures.grid([cell for row in rows for cell in row], columns=len(subjects))
+    path = save_jpeg(os.path.join(out_dir, "gallery.jpg"), sheet)
+    log(f"wrote {path}")
+    return path
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", default="gallery_out", help="output folder (default: gallery_out)")
+    parser.add_argument("--presets", nargs="+", default=list(PRESETS))
+    parser.add_argument("--subjects", nargs="+", default=list(SUBJECTS))
+    args = parser.parse_args(argv)
+    run(args.out, presets=args.presets, subjects=args.subjects)
+
+
+if __name__ == "__main__":
+    main()
