@@ -1,39 +1,44 @@
 """Contour lines along the picture's strong edges, drawn on the surface.
 
 A painter outlines the forms that carry the subject: a silhouette, a
-window, a road marking.  The lines here are a difference of Gaussians of the
-colours' lightness on the surface (Winnemöller, Olsen and Gooch, "Real-time
-video abstraction", SIGGRAPH 2006), smoothed along the edges' own direction
-so that broken edges join into lines (Kang, Lee and Chui, "Coherent line
-drawing", NPAR 2007):
+window, a road marking.  The lines here follow the size of the colours'
+lightness gradient after a Gaussian on the surface, as edge-based
+abstraction does (Winnemöller, Olsen and Gooch, "Real-time video
+abstraction", SIGGRAPH 2006), smoothed along the edges' own direction so that
+broken edges join into lines (Kang, Lee and Chui, "Coherent line drawing",
+NPAR 2007):
 
-- ``D = G_{1.6 s} * L - G_s * L`` on the band, ``L`` the OKLab lightness and
+- ``D = |grad (G_s * L)|`` on the band, ``L`` the OKLab lightness and
   ``G_s`` the band's 3-D Gaussian of deviation ``s`` (a surface Gaussian to
-  second order): positive on the dark side of an edge, zero on flat colour;
+  second order), by central differences: largest on the edge itself and zero
+  on flat colour, so that the line straddles the edge (half of it shows on
+  the light side of a dark form, where a line on the dark side would not,
+  and the edge does not move);
 - ``D`` averaged along the stroke field (the edges' tangent) over a few
   deviations, which keeps lines and drops speckle;
 - a line where ``D`` is large against the picture's own edges (its 99th
   percentile, so that a faint picture still has its strongest edges drawn),
   with a smooth ramp: lines are anti-aliased by construction.
 
-Lines are as wide as about two deviations ``s``; :func:`line_width` ties
-``s`` to the finest strokes and the band's spacing.
+Lines are as wide as about two and a half deviations ``s``; :func:`line_width`
+ties ``s`` to the finest strokes and the band's spacing.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .oklab import to_oklab
+from .oklab import from_oklab, to_oklab
 from .smoothing import GaussianSmoother, taper
+from .sparse import SplitMatrix
+from .stencils import gradient_matrices
 
 __all__ = ["contour_field", "line_strength", "line_width", "ink_colour"]
 
-#: The second Gaussian of the difference is this many times wider than the first.
-DOG_RATIO = 1.6
 #: A line starts where D reaches this share of its 99th percentile, and is full at three times it.
-LINE_START = 0.35
-#: The smallest 99th percentile of D taken (OKLab lightness): flatter pictures draw no lines.
+LINE_START = 0.25
+#: The smallest 99th percentile of D taken (OKLab lightness across a deviation): flatter pictures draw
+#: no lines.
 LINE_FLOOR = 0.01
 #: Steps of the averaging along the edges, each way, each half a deviation long.
 FLOW_STEPS = 4
@@ -47,15 +52,15 @@ def line_width(stroke_width, spacing):
 
 
 def contour_field(band, colours, deviation, directions=None):
-    """The line field ``D`` (N,) of band colours (N, 3): the difference of Gaussians of their OKLab
-    lightness at ``deviation`` (object units), averaged along ``directions`` (N, 3) where given,
-    divided by its 99th percentile over the band's closest points (see the module's notes)."""
+    """The line field ``D`` (N,) of band colours (N, 3): the gradient of their OKLab lightness smoothed
+    at ``deviation`` (object units), averaged along ``directions`` (N, 3) where given, divided by
+    its 99th percentile over the band points the interpolation reads (see the module's notes)."""
     lightness = np.ascontiguousarray(to_oklab(np.asarray(colours).reshape(band.size, -1)[:, :3])[:, 0],
-                                     dtype=np.float32)[None, :]
-    weights = taper(band.dist, band.width)
-    narrow = GaussianSmoother(band, 0.5 * deviation**2, weights=weights)(lightness)[0]
-    wide = GaussianSmoother(band, 0.5 * (DOG_RATIO * deviation) ** 2, weights=weights)(lightness)[0]
-    field = np.maximum(wide - narrow, 0.0)
+                                     dtype=np.float32)
+    smooth = GaussianSmoother(band, 0.5 * deviation**2, weights=taper(band.dist, band.width))(lightness[None, :])[0]
+    gradients = band.structure("gradients", np.dtype(np.float32).str,
+                               lambda: [SplitMatrix(D) for D in gradient_matrices(band, np.float32, rows="all")])
+    field = np.sqrt(sum((D @ smooth) ** 2 for D in gradients)) * deviation     # lightness across a deviation
     if directions is not None:
         field = _along(band, field, directions, 0.5 * deviation)
     scale = max(float(np.quantile(field[band.inner] if band.inner is not None else field, 0.99)), LINE_FLOOR)
@@ -64,16 +69,18 @@ def contour_field(band, colours, deviation, directions=None):
 
 def _along(band, field, directions, step):
     """``field`` (N,) averaged over :data:`FLOW_STEPS` steps of ``step`` each way along ``directions``
-    (N, 3) from every band point's closest point, reading the nearest band point at each step and
-    keeping to the tangent plane of its closest point."""
+    (N, 3) from the closest point of every band point the interpolation reads (``band.inner``),
+    reading the nearest band point at each step and keeping to the tangent plane of its closest
+    point."""
     from .tangent import surface_normals
 
     normals = surface_normals(band)
-    total = field.astype(np.float64)
-    count = np.ones(band.size)
+    read = np.flatnonzero(band.inner) if band.inner is not None else np.arange(band.size)  # what is interpolated
+    total = field[read].astype(np.float64)
+    count = np.ones(len(read))
     for sign in (1.0, -1.0):
-        x = band.cp.copy()
-        heading = sign * np.asarray(directions, dtype=np.float64)
+        x = band.cp[read].copy()
+        heading = sign * np.asarray(directions[read], dtype=np.float64)
         for _ in range(FLOW_STEPS):
             x += step * heading
             g = band.lookup(np.rint(x / band.h).astype(np.int64))
@@ -84,7 +91,9 @@ def _along(band, field, directions, step):
             ahead = np.asarray(directions[g], dtype=np.float64)
             heading = ahead * np.where(np.einsum("ij,ij->i", ahead, heading) < 0, -1.0, 1.0)[:, None]
             x -= np.einsum("ij,ij->i", x - band.cp[g], normals[g])[:, None] * normals[g]
-    return total / count
+    out = field.astype(np.float64, copy=True)
+    out[read] = total / count
+    return out
 
 
 def line_strength(field):
@@ -92,10 +101,15 @@ def line_strength(field):
     return np.clip((np.asarray(field) - LINE_START) / (2.0 * LINE_START), 0.0, 1.0)
 
 
+#: Lines are drawn in the palette's darkest colour made darker still: this share of its lightness.
+INK_LIGHTNESS = 0.6
+
+
 def ink_colour(palette):
-    """The colour lines are drawn in: the palette's darkest (sRGB), or None without a palette (then
-    lines darken the colour under them)."""
+    """The colour lines are drawn in: the palette's darkest, darker still (sRGB), or None without a palette
+    (then lines darken the colour under them)."""
     if palette is None or len(palette) == 0:
         return None
-    palette = np.asarray(palette, dtype=np.float64)[:, :3]
-    return palette[int(np.argmin(to_oklab(palette)[:, 0]))]
+    lab = to_oklab(np.asarray(palette, dtype=np.float64)[:, :3])
+    darkest = lab[int(np.argmin(lab[:, 0]))] * [INK_LIGHTNESS, 1.0, 1.0]
+    return from_oklab(darkest)

@@ -26,14 +26,21 @@ class Painting:
     ``dabs``: the :class:`~cp_stylize.strokes.Dabs` (or None), drawn with
     opacity ``strength``; ``lines`` (N,): the band's contour field (or None),
     inked ``contours`` strong in ``ink`` (sRGB; None darkens the colour under
-    the line instead).
+    the line instead).  ``source(faces, barys)`` gives the picture's own
+    colours (M, 3) at points of the mesh, at the texture's resolution; with
+    it, strokes stop where the picture's colours change (not where the
+    palette's do), and each stroke takes the colour under it from
+    ``recolour(colours)`` of those colours (the palette mapping) rather than
+    the band's, jittered by ``jitter = (pull, shade, palette in OKLab)``.
     """
 
-    def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None):
+    def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
+                 recolour=None, jitter=None):
         self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
         self.contours = float(contours)
         self.ink = None if ink is None else np.asarray(ink, dtype=np.float64)
         self.columns = None if lines is None or self.contours <= 0 else np.asarray(lines, dtype=np.float32)
+        self.source, self.recolour, self.jitter = source, recolour, jitter
 
     def __call__(self, texels, colours, columns, progress=None):
         """The texels' colours (M, C) painted, and the height (M,) the strokes leave (None without strokes)."""
@@ -42,11 +49,18 @@ class Painting:
         out = colours[:, :3].astype(np.float64)
         height = None
         if self.dabs is not None and len(self.dabs):
-            mesh = self.mesh
+            mesh, dabs = self.mesh, self.dabs
             where = Texels(points, mesh.normal(points, faces, barys), mesh.piece[faces],
                            texel_lengths(mesh, self.atlas, faces), flat, len(self.atlas.texels), self.atlas.size,
                            self.atlas.uvs, mesh.vertices[mesh.input_faces])
-            out, height = paint(self.dabs, where, out, strength=self.strength, progress=progress)
+            reference = source = pickup = None
+            if self.source is not None:
+                picture = np.asarray(self.source(faces, barys), dtype=np.float64)[:, :3]
+                reference, source = picture, np.asarray(self.source(dabs.face, dabs.bary))[:, :3]
+                under = picture if self.recolour is None else self.recolour(picture)
+                pickup = (under, *self.jitter) if self.jitter is not None else None
+            out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
+                                progress=progress)
         if self.columns is not None:
             ink = self.contours * line_strength(columns[:, 0])[:, None]
             target = 0.25 * out if self.ink is None else self.ink
@@ -57,7 +71,7 @@ class Painting:
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
-             weights=None, field=None):
+             weights=None, field=None, source=None, recolour=None):
     """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
 
     Parameters
@@ -78,6 +92,12 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     field : ndarray, shape (N, 3), optional
         A direction field the strokes follow where its length is 1 (see
         :func:`cp_stylize.pipeline.stroke_field`).
+    source : callable, optional
+        ``source(faces, barys)``: the picture's colours at points of the mesh, at the texture's
+        resolution (see :class:`Painting`).
+    recolour : callable, optional
+        ``recolour(colours)``: the mapping that made ``values`` from the picture's colours (the
+        palette's), for the colours strokes pick up at the texture's resolution.
     """
     values = np.asarray(values).reshape(band.size, -1)[:, :3]
     structure = values if structure is None else np.asarray(structure).reshape(band.size, -1)[:, :3]
@@ -85,13 +105,15 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     texel = float(np.median(texel_lengths(mesh, atlas, atlas.face))) if len(atlas.face) else band.h
     lengths = brush.lengths(texel) if brush is not None else [16 * texel]
     fields = StrokeField.layers(band, lab, lengths) if brush is not None or contours > 0 else None
-    dabs = None
+    dabs = jitter = None
     if brush is not None and brush.strength > 0:
         dabs = place_dabs(mesh, band, values, brush, structure=lab, texel=texel, palette=palette,
                           weights=weights, field=field, fields=fields)
+        lab_palette = None if palette is None else to_oklab(np.asarray(palette, dtype=np.float64)[:, :3])
+        jitter = (brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
     lines = None
     if contours > 0:
         finest = brush.widths(texel)[-1] if brush is not None else 4 * texel
         lines = contour_field(band, structure, line_width(finest, band.h), fields[-1].direction)
     return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
-                    contours=contours, ink=ink_colour(palette))
+                    contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter)

@@ -19,8 +19,9 @@ take the same colour.  :func:`map_to_palette` works in OKLab
 
 The palette colours are blended by how well they fit (a soft choice: no hard
 splits where a tone crosses from one colour to the next).  ``fidelity``
-then leads back to the picture's own colours: at 0 the palette alone, at 0.5
-the picture's hues in the palette's tones, at 1 the picture's colours.
+then leads back to the picture's own colours: from 0 to 0.5 its hues turn
+back (at 0.5 the picture's hues in the palette's tones and chroma), from 0.5
+to 1 its lightness and chroma (at 1 the picture's colours).
 """
 
 from __future__ import annotations
@@ -36,12 +37,12 @@ __all__ = ["map_to_palette", "tone_ranks", "palette_noise", "palette_distance", 
 GREY = 0.04
 #: How far in tone ranks a colour may lie beyond a palette colour's share and still take it (a
 #: Gaussian's deviation, as a share of the ranks).
-TONE_REACH = 0.12
+TONE_REACH = 0.2
 #: How far in hue a colour may lie from a palette colour and still take it (distance of unit hue
-#: vectors: 0.6 is about 35 degrees).
-HUE_REACH = 0.6
-#: The hue of a strongly coloured picture colour (chroma of HUE_WEIGHT * GREY or more) counts this many
-#: times as much as one just past GREY.
+#: vectors: 0.5 is about 29 degrees).
+HUE_REACH = 0.5
+#: The hue of a strongly coloured picture colour (chroma of (HUE_WEIGHT + 0.5) * GREY or more) counts this
+#: many times as much as one at 1.5 GREY.
 HUE_WEIGHT = 3.0
 #: Fidelity turns a colour's hue back to the picture's where its chroma is above this share of GREY:
 #: the dark, dull colours of a photograph have hues that read, although too weak to choose by.
@@ -149,9 +150,10 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
-    # how much a hue counts: from 0 for greys up to HUE_WEIGHT times for strong colours (a saturated red
-    # must not turn blue however its tone ranks), and whether a palette colour has a hue at all
-    hued = np.clip(chroma / GREY, 0.0, HUE_WEIGHT)
+    # how much a hue counts: nothing for greys (chroma up to GREY / 2: asphalt, an overcast sky), up to
+    # HUE_WEIGHT times for strong colours (a saturated red must not turn blue however its tone ranks);
+    # and whether a palette colour has a hue at all
+    hued = np.clip(chroma / GREY - 0.5, 0.0, HUE_WEIGHT)
     palette_hued = np.clip(palette_chroma / GREY, 0.0, 1.0)
     # distance in tone: how far the rank lies outside each colour's share
     tone = np.maximum(np.abs(ranks[:, None] - centres[None, :]) - weights[None, :] / 2, 0.0) / TONE_REACH
@@ -173,8 +175,8 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
     own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
-    return np.column_stack([(1.0 - fidelity) * lightness + fidelity * lab[:, 0],
-                            (1.0 - fidelity) * ab + fidelity * lab[:, 1:]])
+    own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
+    return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * lab[:, 1:]])
 
 
 #: In :func:`palette_distance`, a difference of hue and chroma counts this many times a difference of lightness.

@@ -31,6 +31,7 @@ from .atlas import XATLAS_FACES, UnusableUVs, uv_atlas
 from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
 from .cache import RunCache, digest
 from .colours import ColourHull, distinct_colours
+from .contours import ink_colour
 from .curvature import principal_curvatures
 from .band import Band, estimate_band_size
 from .diffusion import diffuse
@@ -40,7 +41,7 @@ from .noise import inject_noise
 from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .parameters import DIRECTED_MODES
-from .strokes import Brush
+from .strokes import Brush, form_field
 from .sampling import texture_at
 
 __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
@@ -100,7 +101,9 @@ def stroke_field(band, settings, directions=None):
     confidence in it, which the diffusion blends by:
 
     - ``"max"``, ``"min"``: a principal curvature direction times its
-      confidence (0 at umbilics, on spheres and flat parts);
+      confidence (0 at umbilics, on spheres and flat parts); with brush
+      strokes, completed there by the object's z axis on the surface (its
+      meridians for "min", its parallels for "max": :func:`cp_stylize.strokes.form_field`);
     - ``"axis"``: ``settings.axis`` (normalised); the diffusion keeps its
       tangential part, whose length falls to 0 where the surface faces it;
     - ``"attribute"``: ``directions``, per-corner vectors (F, 3, 3) of the
@@ -112,7 +115,10 @@ def stroke_field(band, settings, directions=None):
         return None
     if source in ("max", "min"):
         curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
-        return curvature.direction(source) * curvature.confidence[:, None]
+        field = curvature.direction(source) * curvature.confidence[:, None]
+        if settings.strokes > 0:        # brush strokes: along the object's axis where the form has no direction
+            field = form_field(band, field, around=source == "max")
+        return field
     if source == "axis":
         axis = np.asarray(settings.axis, dtype=np.float64)
         return np.broadcast_to(axis / np.linalg.norm(axis), (band.size, 3)).copy()
@@ -251,8 +257,12 @@ def input_colours(colours, settings, channels=3):
         corners = np.asarray(colours.corner_colours, dtype=np.float32)
         corners = corners.reshape(-1, corners.shape[-1])[:, :channels]
         found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
-    if settings.noise_on or settings.strokes > 0:                # the noise and the strokes paint with it
+    if (settings.noise_on or settings.strokes > 0) and settings.palette:   # the noise and the strokes paint with it
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
+    if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
+        ink = ink_colour(settings.palette)
+        found.append(np.zeros((1, channels), np.float32) if ink is None else
+                     np.pad(np.float32(ink)[None, :channels], ((0, 0), (0, max(0, channels - 3)))))
     covered = colours.corner_colours is not None or (
         bool(colours.textures) and np.all(np.any([np.asarray(Texture(*t).faces, bool) for t in colours.textures], axis=0)))
     clipped = any("clip" in Texture(*t).wrap for t in colours.textures)
@@ -367,8 +377,13 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
             brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
                           jitter=settings.stroke_jitter, swirl=settings.swirl, strength=settings.strokes,
                           seed=settings.seed, fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
+        recolour = None
+        if settings.noise_mapping == "tone":
+            def recolour(picture):
+                return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity)
         paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
-                         palette=settings.palette or None, weights=weights, field=field)
+                         palette=settings.palette or None, weights=weights, field=field, recolour=recolour,
+                         source=lambda face, bary: colours_at(face, bary, colours))
         report(0.9)
         lap("painting")
     texels = cache.get("texels", layout,

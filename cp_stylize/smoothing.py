@@ -69,12 +69,16 @@ class GaussianSmoother:
         Non-negative weight of each point's data (default all 1); points of
         weight 0 carry no data.
     dtype : float32 or float64
+    neighbours : dict, optional
+        Kept between smoothers of one band: the band points each point's taps
+        read along each axis, found once for the widest kernel (make the
+        widest smoother first).
 
     Calling the smoother on rows (k, N) returns the smoothed rows.  Points that
     no weighted point reaches get 0; :attr:`covered` marks the others.
     """
 
-    def __init__(self, band, t, weights=None, dtype=np.float32):
+    def __init__(self, band, t, weights=None, dtype=np.float32, neighbours=None):
         self.dtype = np.dtype(dtype)
         self.std = math.sqrt(2.0 * float(t)) / band.h
         weights = _weights(band, weights, self.dtype)
@@ -82,7 +86,7 @@ class GaussianSmoother:
             offsets, taps = gaussian_taps(self.std)
             # first along z: in the band's (i, j, k) order those neighbours are near in memory
             self.passes = [SplitMatrix(_axis_matrix(band, axis, offsets, taps, self.dtype,
-                                                    weights if first else None))
+                                                    weights if first else None, neighbours))
                            for first, axis in zip((True, False, False), (2, 1, 0))]
         else:  # no blur: the weights alone
             self.passes = [sp.diags(weights, format="csr")]
@@ -101,16 +105,26 @@ class GaussianSmoother:
         return out
 
 
-def _axis_matrix(band, axis, offsets, taps, dtype, source_weights):
+def _axis_matrix(band, axis, offsets, taps, dtype, source_weights, neighbours=None):
     """CSR (N, N): row i holds the ``taps`` at the band points ``i + offsets * e_axis``.
 
     Taps that fall outside the band are left out; with ``source_weights``
     each tap is multiplied by its point's weight (zero weights left out).
+    ``neighbours`` ({axis: neighbour indices of the offsets -R..R}) keeps the
+    lookups for kernels no wider.
     """
     n = band.size
-    step = np.zeros((len(offsets), 3), np.int64)
-    step[:, axis] = offsets
-    nbr = band.neighbors(step)
+    radius = int(offsets[-1])
+    held = None if neighbours is None else neighbours.get(axis)
+    if held is not None and (held.shape[1] - 1) // 2 >= radius:
+        centre = (held.shape[1] - 1) // 2
+        nbr = held[:, centre - radius:centre + radius + 1]
+    else:
+        step = np.zeros((len(offsets), 3), np.int64)
+        step[:, axis] = offsets
+        nbr = band.neighbors(step)
+        if neighbours is not None:
+            neighbours[axis] = nbr
     weights = np.ones(n + 1, dtype)
     if source_weights is not None:
         weights[:n] = source_weights

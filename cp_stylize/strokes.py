@@ -15,7 +15,9 @@ dab on the surface itself:
   where the colours at their scale differ from the layer before (detail and
   edges);
 - **oriented** along the stroke field of its layer (:class:`StrokeField`):
-  the picture's structure where it has some, else swirls or a given field;
+  the picture's structure where it has some, else (with ``swirl``) the level
+  lines of its broad light and dark (rings around a bright patch) or swirls;
+  or along a given field (the surface's form);
 - **one flat colour**: the filtered colours at the dab's centre, blurred to
   the layer's width, moved a little towards a neighbouring palette colour
   (``jitter``);
@@ -42,7 +44,8 @@ from .palette import check_palette, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
 
-__all__ = ["Brush", "Dabs", "Texels", "StrokeField", "Swirls", "place_dabs", "paint", "LAYER_RATIO"]
+__all__ = ["Brush", "Dabs", "Texels", "StrokeField", "Swirls", "form_field", "place_dabs", "paint", "jitter",
+           "LAYER_RATIO"]
 
 #: Each layer's dabs are this many times narrower than the layer's before.
 LAYER_RATIO = 1.8
@@ -60,8 +63,11 @@ CLIP = 0.2
 LENGTH_SPREAD = 0.12
 #: Swirls (:class:`Swirls`) are this many dab lengths across.
 SWIRL_SIZE = 4.0
-#: Of the height a later dab paints over, this share is scraped away.
-FLATTEN = 0.6
+#: Of the height a later dab paints over, this share is scraped away (the rest stays under it: paint
+#: builds up where strokes overlap).
+FLATTEN = 0.35
+#: How deep the bristle marks in a dab are, as a share of its thickness.
+GROOVE_DEPTH = 0.12
 #: Bristle grooves are at least this many texels apart.
 GROOVE_TEXELS = 3.0
 #: Dabs drawn at once (a block of pairs of texels and dabs).
@@ -106,7 +112,8 @@ class Brush:
 class Dabs:
     """Dabs in painting order: centres, unit normals and directions (n, 3), lengths and widths (n,),
     sRGB colours (n, 3), connected pieces of the mesh (n,), bristle phases (n,), layers (n,), and the
-    input face (n,) and barycentric coordinates (n, 3) of each centre."""
+    input face (n,) and barycentric coordinates (n, 3) of each centre, and the draws of each dab's
+    colour jitter (n, 3), which :func:`paint` applies to the colour it picks up under the dab."""
 
     centre: np.ndarray
     normal: np.ndarray
@@ -119,13 +126,18 @@ class Dabs:
     layer: np.ndarray
     face: np.ndarray
     bary: np.ndarray
+    draws: np.ndarray = None       # (n, 3) uniform draws of each dab's jitter (see :func:`jitter`), or None
 
     def __len__(self):
         return len(self.centre)
 
     @classmethod
     def concatenate(cls, parts):
-        return cls(*[np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(cls)])
+        def joined(name):
+            found = [getattr(p, name) for p in parts]
+            return None if any(f is None for f in found) else np.concatenate(found)
+
+        return cls(*[joined(f.name) for f in dataclasses.fields(cls)])
 
     @property
     def aspect(self):
@@ -199,10 +211,12 @@ class StrokeField:
             fields.append(cls(band, np.ascontiguousarray((q1 * c - q0 * s).T), confidence, strength))
         return fields
 
-    def at(self, points, normals, swirl=0.0, swirls=None, field=None):
+    def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None):
         """Unit directions (M, 3) at surface points (M, 3) with normals (M, 3): the structure's, blended
-        by doubled angles with ``swirls`` (by ``swirl`` where the structure is weak) or with a given
-        ``field`` (N, 3) of the band, whose length is the confidence in it."""
+        by doubled angles with a given ``field`` (N, 3) of the band, whose length is the confidence in
+        it, and, by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure
+        over a wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes
+        ring his stars) and, where that is weak too, with ``swirls``."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
         none = np.linalg.norm(direction, axis=1) < 0.5
@@ -216,9 +230,40 @@ class StrokeField:
             trust[np.linalg.norm(given, axis=1) < 0.5] = 0.0          # no direction there (a flat part)
             given[trust == 0] = direction[trust == 0]
             direction = _blend(given, direction, trust, normals)
-        if swirls is not None and swirl > 0:
-            direction = _blend(direction, swirls(points, normals), 1.0 - swirl * (1.0 - confidence), normals)
+        if swirl > 0 and (broad is not None or swirls is not None):
+            if broad is not None:
+                wide = broad._nearest(points)
+                around = _tangent(broad.direction[wide].astype(np.float64), normals)
+                none = np.linalg.norm(around, axis=1) < 0.5
+                around[none] = direction[none]
+                reach = np.where(none, 0.0, broad.confidence[wide].astype(np.float64))
+                if swirls is not None:
+                    around = _blend(around, swirls(points, normals), reach, normals)
+            else:
+                around = swirls(points, normals)
+            direction = _blend(direction, around, 1.0 - swirl * (1.0 - confidence), normals)
         return direction
+
+
+def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
+    """A direction field (N, 3) along the form, whose length is the confidence in it, completed where the
+    form has no direction of its own (a sphere, a flat part): there strokes run along the object's
+    ``axis`` projected onto the surface (its meridians), or around it (``around``: its parallels), as
+    far as the surface is not square to the axis.  ``field`` is a principal curvature direction times
+    its confidence (:func:`cp_stylize.pipeline.stroke_field`)."""
+    from .tangent import surface_normals
+
+    normals = np.asarray(surface_normals(band), dtype=np.float64)
+    given = np.asarray(field, dtype=np.float64)
+    trust = np.clip(np.linalg.norm(given, axis=1), 0.0, 1.0)
+    meridian = np.asarray(axis, dtype=np.float64) - (normals @ np.asarray(axis, dtype=np.float64))[:, None] * normals
+    reach = np.clip(np.linalg.norm(meridian, axis=1), 0.0, 1.0)            # 0 where the surface faces the axis
+    fallback = _unit(np.cross(normals, meridian) if around else meridian)
+    unit = _tangent(given, normals)
+    unsure = np.linalg.norm(unit, axis=1) < 0.5
+    unit[unsure] = fallback[unsure]
+    blended = _blend(unit, fallback, np.where(unsure, 0.0, trust), normals)
+    return blended * np.maximum(trust, reach)[:, None]
 
 
 def _unit(v):
@@ -286,6 +331,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     structure = to_oklab(values) if structure is None else structure
     lab_palette = None if palette is None else to_oklab(check_palette(palette, weights)[0])
     swirls = Swirls(SWIRL_SIZE * brush.length, brush.seed) if brush.swirl > 0 else None
+    broad = StrokeField.layers(band, structure, [SWIRL_SIZE * brush.length])[0] if brush.swirl > 0 else None
     widths, lengths = brush.widths(texel), brush.lengths(texel)
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
     parts = []
@@ -301,14 +347,15 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
             points, faces, bary = points[chosen], faces[chosen], bary[chosen]
         normals = mesh.normal(points, faces, bary)
         pieces = mesh.piece[faces]
-        direction = lines.at(points, normals, brush.swirl, swirls, field)
+        direction = lines.at(points, normals, brush.swirl, swirls, field, broad)
         count = len(points)
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(count) - 1.0))
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
+        draws = rng.random((count, 3))
         parts.append(Dabs(points, normals, direction, length, np.full(count, width),
-                          _jittered(colour, brush.jitter, lab_palette, rng, 1.0 - brush.fidelity),
-                          pieces.astype(np.int64),
-                          2 * np.pi * rng.random(count), np.full(count, layer), faces, bary))
+                          jitter(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette),
+                          pieces.astype(np.int64), 2 * np.pi * rng.random(count), np.full(count, layer), faces, bary,
+                          draws))
     return Dabs.concatenate(parts)
 
 
@@ -330,16 +377,18 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
     return read.reshape(len(points), k, -1).mean(axis=1)
 
 
-def _jittered(colours, jitter, lab_palette, rng, pull=1.0):
-    """sRGB colours (n, 3), each moved by up to ``jitter * pull`` towards one of the three palette colours
-    nearest to it (:func:`cp_stylize.palette.palette_distance`: its neighbours in hue first), and its
-    lightness by a little noise."""
+def jitter(colours, draws, pull, shade, lab_palette):
+    """sRGB colours (n, 3), each moved towards one of the three palette colours nearest to it
+    (:func:`cp_stylize.palette.palette_distance`: its neighbours in hue first) by up to ``pull``, and
+    its lightness by up to ``shade`` times 0.1: broken colour.  ``draws`` (n, 3) in [0, 1) pick the
+    neighbour, the share of ``pull`` and the lightness, so that a dab keeps its jitter whatever
+    colour it picks up."""
     lab = to_oklab(colours)
-    if jitter > 0 and lab_palette is not None:
+    if pull > 0 and lab_palette is not None:
         near = np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
-        pick = near[np.arange(len(lab)), rng.integers(0, near.shape[1], len(lab))]
-        lab += (jitter * pull * rng.random(len(lab)))[:, None] * (lab_palette[pick] - lab)
-    lab[:, 0] += 0.1 * jitter * rng.standard_normal(len(lab))
+        pick = near[np.arange(len(lab)), np.minimum((draws[:, 0] * near.shape[1]).astype(np.int64), near.shape[1] - 1)]
+        lab += (pull * draws[:, 1])[:, None] * (lab_palette[pick] - lab)
+    lab[:, 0] += 0.1 * shade * (2.0 * draws[:, 2] - 1.0)
     return from_oklab(lab)
 
 
@@ -390,7 +439,7 @@ WHOLE = 0.92
 RASTER_SLACK = 1.1
 
 
-def paint(dabs, texels, base, reference=None, *, strength=1.0, progress=None):
+def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pickup=None, progress=None):
     """The texels' colours with the dabs painted over them, and the height the paint leaves.
 
     Parameters
@@ -400,9 +449,16 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, progress=None):
     base : ndarray, shape (M, 3)
         The colours under the paint.
     reference : ndarray, shape (M, 3), optional
-        The colours a dab is clipped against (:data:`CLIP`); default ``base``.
+        The colours a dab is clipped against (:data:`CLIP`), sRGB: the picture's own at the texels;
+        default ``base``.
     strength : float
         The dabs' opacity.
+    source : ndarray, shape (n, 3), optional
+        Each dab's own colour in ``reference``'s terms (the picture's at its centre); default its colour.
+    pickup : tuple, optional
+        ``(colours (M, 3), pull, shade, lab_palette)``: each dab takes the mean of ``colours`` over the
+        texels it covers (the picture under it at the texture's resolution) and its jitter
+        (:func:`jitter`) again; without it, dabs keep the colours they have.
     progress : callable, optional
         ``progress(fraction)``; an exception it raises stops the painting.
 
@@ -423,16 +479,21 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, progress=None):
     """
     reference = base if reference is None else reference
     lab_reference = to_oklab(reference).astype(np.float32)
-    lab_dabs = to_oklab(dabs.colour).astype(np.float32)
-    sides = np.cross(dabs.normal, dabs.direction)
+    lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
+    shapes = _Shapes(dabs)
     uv_axes = _uv_axes(dabs, texels)
 
     def block(s):
-        i, j, alpha, along, across = _covering(dabs, sides, uv_axes, texels, np.arange(s, min(s + _CHUNK, len(dabs))))
+        which = np.arange(s, min(s + _CHUNK, len(dabs)))
+        i, j, alpha, along, across = _covering(dabs, shapes, uv_axes, texels, which)
         difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=1)
         alpha *= strength * np.clip(2.0 - difference / CLIP, 0.0, 1.0)
         drawn = alpha > 1e-3
-        return _composite(dabs, texels, *(x[drawn] for x in (i, j, alpha, along, across)))
+        i, j, alpha, along, across = (x[drawn] for x in (i, j, alpha, along, across))
+        colour = dabs.colour[which]
+        if pickup is not None and len(i):
+            colour = _under(colour, which, i, j, alpha, dabs.draws[which], *pickup)
+        return _composite(dabs, texels, colour, which[0], i, j, alpha, along, across)
 
     colours = np.array(base, dtype=np.float64)
     height = np.zeros(len(texels.points))
@@ -442,6 +503,19 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, progress=None):
             colours[touched] = colours[touched] * through[:, None] + added
             height[touched] = height[touched] * height_through + height_added
     return colours.astype(np.float32), height.astype(np.float32)
+
+
+def _under(colour, which, i, j, alpha, draws, colours, pull, shade, lab_palette):
+    """The colours (n, 3) of the dabs ``which``: the mean of ``colours`` over the texels each covers
+    (weighted by coverage), jittered by its own draws; a dab that covers no texel keeps ``colour``."""
+    place = i - which[0]
+    weight = np.bincount(place, weights=alpha, minlength=len(which))
+    mean = np.column_stack([np.bincount(place, weights=alpha * colours[j, c], minlength=len(which))
+                            for c in range(3)]) / np.maximum(weight, 1e-12)[:, None]
+    found = weight > 1e-6
+    out = np.array(colour, dtype=np.float64)
+    out[found] = jitter(mean[found], draws[found], pull, shade, lab_palette)
+    return out
 
 
 def _uv_axes(dabs, texels):
@@ -464,12 +538,12 @@ def _uv_axes(dabs, texels):
     return np.stack(axes, axis=1), centre
 
 
-def _covering(dabs, sides, uv_axes, texels, which):
+def _covering(dabs, shapes, uv_axes, texels, which):
     """The texels each dab of ``which`` (sorted indices) covers: pairs of dabs ``i`` and texels ``j`` with the coverage
     ``alpha`` (anti-aliased over a texel) and the texel's place in the dab (``along`` its length and
     ``across`` its width, each in [-1, 1])."""
     i, j = _raster_pairs(uv_axes, texels, which)
-    found = _geometry(dabs, sides, texels, i, j)
+    found = _geometry(shapes, texels, i, j)
     place = np.searchsorted(which, found[0])                         # ``which`` is sorted
     inside = found[1] < texels.covered
     area = np.bincount(place, weights=found[2] * texels.lengths[found[1]] ** 2 * inside, minlength=len(which))
@@ -477,7 +551,7 @@ def _covering(dabs, sides, uv_axes, texels, which):
     if whole.all():
         return found
     keep = whole[place]
-    searched = _geometry(dabs, sides, texels, *_ball_pairs(dabs, texels, which[~whole]))
+    searched = _geometry(shapes, texels, *_ball_pairs(dabs, texels, which[~whole]))
     return tuple(np.concatenate([a[keep], b]) for a, b in zip(found, searched))
 
 
@@ -541,21 +615,34 @@ def _half_width(along):
 _AREA = float(np.mean(_half_width(np.linspace(-1, 1, 20001))))
 
 
-def _geometry(dabs, sides, texels, i, j):
+class _Shapes:
+    """The dabs' geometry in single precision, made once for :func:`_geometry`."""
+
+    def __init__(self, dabs):
+        self.centre = dabs.centre.astype(np.float32)
+        self.direction = dabs.direction.astype(np.float32)
+        self.side = np.cross(dabs.normal, dabs.direction).astype(np.float32)
+        self.normal = dabs.normal.astype(np.float32)
+        self.half_length = (0.5 * dabs.length).astype(np.float32)
+        self.width = dabs.width.astype(np.float32)
+        self.piece = dabs.piece
+
+
+def _geometry(shapes, texels, i, j):
     """Of pairs of dabs ``i`` and texels ``j``: those the dab covers, with the coverage and the
     texel's place in the dab (see :func:`_covering`)."""
-    half_length = (0.5 * dabs.length[i]).astype(np.float32)
-    delta = texels.points[j] - dabs.centre[i].astype(np.float32)
-    a = np.einsum("ij,ij->i", delta, dabs.direction[i].astype(np.float32)) / half_length
+    half_length = shapes.half_length[i]
+    delta = texels.points[j] - shapes.centre[i]
+    a = np.einsum("ij,ij->i", delta, shapes.direction[i]) / half_length
     lengths = texels.lengths[j]
     near = np.abs(a) <= 1.0 + 2.0 * lengths / half_length
     i, j, delta, a, half_length, lengths = i[near], j[near], delta[near], a[near], half_length[near], lengths[near]
-    v = np.einsum("ij,ij->i", delta, sides[i].astype(np.float32))
-    width = dabs.width[i].astype(np.float32)
+    v = np.einsum("ij,ij->i", delta, shapes.side[i])
+    width = shapes.width[i]
     near = np.abs(v) <= 0.5 * width + lengths
     i, j, delta, a, v, half_length, width, lengths = (x[near] for x in (i, j, delta, a, v, half_length, width, lengths))
-    normal = dabs.normal[i].astype(np.float32)
-    own = ((np.einsum("ij,ij->i", texels.normals[j], normal) > 0.3) & (texels.pieces[j] == dabs.piece[i])
+    normal = shapes.normal[i]
+    own = ((np.einsum("ij,ij->i", texels.normals[j], normal) > 0.3) & (texels.pieces[j] == shapes.piece[i])
            & (np.abs(np.einsum("ij,ij->i", delta, normal)) < half_length))
     i, j, a, v, half_length, width, lengths = (x[own] for x in (i, j, a, v, half_length, width, lengths))
     along = np.clip(a, -1.0, 1.0)
@@ -567,24 +654,32 @@ def _geometry(dabs, sides, texels, i, j):
     return i[covered], j[covered], alpha[covered], along[covered], across[covered]
 
 
-def _composite(dabs, texels, i, j, alpha, along, across):
-    """Pairs of dabs ``i`` and texels ``j`` composited in order: per texel touched, how much of what
-    lies under the block shows through, and what the block adds (colour and height)."""
+def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
+    """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' colours ``colour`` (from dab
+    ``first`` on): per texel touched, how much of what lies under the block shows through, and what
+    the block adds (colour and height)."""
     if not len(i):
         return None
     width = dabs.width[i]
-    grooves = np.maximum(2.0, np.round(width / (GROOVE_TEXELS * texels.lengths[j])))
-    groove = np.sin(0.5 * np.pi * grooves * (across + 1.0) + dabs.phase[i])
-    # thicker at the edges (paint pushed aside) and where the brush set down, grooved by bristles
-    profile = (0.55 + 0.45 * across**4) * (1.0 + 0.3 * groove) * (1.0 - 0.175 * (along + 1.0))
-    shade = 1.0 + 0.07 * groove
+    phase = dabs.phase[i]
+    # bristle marks along the stroke, irregular: two waves across it, their number a dab's own, fading
+    # towards the tail where the brush runs dry
+    grooves = np.maximum(2.0, width / (GROOVE_TEXELS * texels.lengths[j]) * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
+    wave = 0.5 * np.pi * grooves * (across + 1.0)
+    groove = (0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)) * (1.0 - 0.3 * (along + 1.0))
+    # raised paint: each dab its own thickness, a ridge where the brush lifted (the tail) and along its
+    # edges (paint pushed aside), a little bristle texture on top
+    thickness = 0.7 + 0.6 * ((3.1 * phase) % 1.0)
+    ridge = 0.35 * np.exp(-(((along - 0.8) / 0.15) ** 2)) + 0.25 * across**4
+    profile = thickness * (0.75 + ridge + GROOVE_DEPTH * groove)
+    shade = 1.0 + 0.03 * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade = i[order], j[order], alpha[order], profile[order], shade[order]
     heads = np.flatnonzero(np.r_[True, j[1:] != j[:-1]])
     through, shown = _over(alpha, heads)
     weight = alpha * shown * shade
-    colour = dabs.colour[i]
-    added = np.column_stack([np.add.reduceat(weight * colour[:, c], heads) for c in range(3)])
+    paint = np.asarray(colour)[i - first]
+    added = np.column_stack([np.add.reduceat(weight * paint[:, c], heads) for c in range(3)])
     height_through, height_shown = _over(FLATTEN * alpha, heads)
     height_added = np.add.reduceat(alpha * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added

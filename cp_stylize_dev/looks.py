@@ -190,7 +190,7 @@ def dab_aspects(dabs, texels, sample=500, seed=0):
     rng = np.random.default_rng(seed)
     which = np.sort(rng.choice(len(dabs), size=min(sample, len(dabs)), replace=False))
     sides = np.cross(dabs.normal, dabs.direction)
-    i, j, alpha, _, _ = strokes._covering(dabs, sides, strokes._uv_axes(dabs, texels), texels, which)
+    i, j, alpha, _, _ = strokes._covering(dabs, strokes._Shapes(dabs), strokes._uv_axes(dabs, texels), texels, which)
     i, j = i[alpha > 0.5], j[alpha > 0.5]
     delta = texels.points[j] - dabs.centre[i]
     along = np.einsum("ij,ij->i", delta, dabs.direction[i])

@@ -5,6 +5,7 @@ import pytest
 
 from cp_stylize import Band, Sphere
 from cp_stylize.contours import contour_field, ink_colour, line_strength, line_width
+from cp_stylize.oklab import hue_difference, to_oklab
 
 
 @pytest.fixture(scope="module")
@@ -12,15 +13,15 @@ def band():
     return Band.build(Sphere(1.0), 0.03)
 
 
-def test_lines_lie_on_the_dark_side_of_edges_and_nowhere_on_flat_colour(band):
+def test_lines_lie_along_edges_and_nowhere_on_flat_colour(band):
     z = band.cp[:, 2]
     colours = np.where((z > 0.3)[:, None], [0.9, 0.85, 0.7], [0.15, 0.2, 0.35]).astype(np.float32)  # a light cap
     lines = line_strength(contour_field(band, colours, line_width(0.04, band.h)))
-    dark_side = (z > 0.25) & (z < 0.29)
-    light_side = (z > 0.31) & (z < 0.4)
+    on_edge = (z > 0.28) & (z < 0.32)                                # both sides of it: the edge stays put
+    near, far = (z > 0.35) & (z < 0.4), (z > 0.2) & (z < 0.24)
     flat = np.abs(z) < 0.2
-    assert np.median(lines[dark_side]) > 0.5
-    assert np.median(lines[light_side]) < 0.1
+    assert np.median(lines[on_edge]) > 0.9
+    assert np.median(lines[near]) < 0.05 and np.median(lines[far]) < 0.05
     assert lines[flat].max() == 0
     assert ((lines > 0.05) & (lines < 0.95)).any()                  # ink ramps in: lines are anti-aliased
 
@@ -31,7 +32,7 @@ def test_lines_follow_the_edges_direction_and_a_faint_picture_draws_none(band):
     along = np.cross(band.cp, [0.0, 0.0, 1.0])                       # the parallels: along the edge
     along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-12)
     smooth = line_strength(contour_field(band, colours, line_width(0.04, band.h), along))
-    assert np.median(smooth[(z > 0.25) & (z < 0.29)]) > 0.5           # the line stays where it was
+    assert np.median(smooth[(z > 0.28) & (z < 0.32)]) > 0.9           # the line stays where it was
     faint = 0.5 + 0.002 * (colours - 0.5)                            # an edge far below the floor
     assert line_strength(contour_field(band, faint, line_width(0.04, band.h))).max() == 0
 
@@ -39,5 +40,7 @@ def test_lines_follow_the_edges_direction_and_a_faint_picture_draws_none(band):
 def test_lines_are_as_wide_as_the_band_can_hold_and_drawn_in_the_palettes_darkest():
     assert line_width(0.04, 0.008) == pytest.approx(0.01)
     assert line_width(0.004, 0.008) == pytest.approx(0.006)         # no finer than 0.75 spacings
-    np.testing.assert_allclose(ink_colour([[0.9, 0.9, 0.2], [0.05, 0.1, 0.3], [0.5, 0.5, 0.5]]), [0.05, 0.1, 0.3])
+    ink = ink_colour([[0.9, 0.9, 0.2], [0.05, 0.1, 0.3], [0.5, 0.5, 0.5]])       # the darkest, darker still
+    assert to_oklab(ink)[0] == pytest.approx(0.6 * to_oklab([0.05, 0.1, 0.3])[0], rel=1e-3)
+    assert hue_difference(to_oklab(ink), to_oklab([0.05, 0.1, 0.3])) < 5
     assert ink_colour([]) is None

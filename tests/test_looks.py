@@ -118,5 +118,5 @@ def test_the_painterly_presets_keep_the_subject_in_their_palette_without_speckle
     print(f"\n{name}: edges {edges:.2f}, speckle {100 * dots:.3f} %, hue at fidelity 0.5 {hue:.1f} degrees "
           f"({counted} texels), distance to the palette {np.median(nearest):.3f}")
     assert edges >= 0.8 and dots <= 0.001 and hue <= 25 and counted > 1000
-    assert np.median(nearest) < 0.12             # at fidelity 0: the palette's colours, jittered between neighbours
+    assert np.median(nearest) < 0.16             # at fidelity 0: the palette's colours, mixed under strokes and jittered
     assert result.height is not None and result.height[mask].max() > 0.3

@@ -215,3 +215,12 @@ def test_an_axis_gives_way_where_the_surface_faces_it(torus_mesh):
     tangential = np.linalg.norm(field - np.sum(field * n, axis=1)[:, None] * n, axis=1)
     np.testing.assert_allclose(tangential, np.sqrt(1 - n[:, 2] ** 2), atol=1e-9)   # sin of the angle to the axis
     assert tangential.min() < 0.05 and tangential.max() > 0.99   # the top of the torus faces the axis
+
+
+def test_strokes_and_contours_without_a_palette_paint_the_pictures_own_colours(torus_mesh):
+    vertices, faces, uvs = torus_mesh
+    colours = ColourInput(textures=[(_stripes(), uvs, np.ones(len(faces), bool))])
+    settings = StylizeSettings(mode="gaussian", T=2e-5, spacing=0.05, image_size=64, strokes=1.0, stroke_width=0.1,
+                               stroke_length=0.4, contours=0.5, relief=0.5)
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    assert np.isfinite(result.image).all() and result.height is not None and result.height.max() > 0.3

@@ -148,3 +148,19 @@ def test_dabs_keep_a_direction_where_a_given_field_has_none(sphere):
     np.testing.assert_allclose(np.einsum("ij,ij->i", dabs.direction, dabs.normal), 0.0, atol=1e-9)
     plain = place_dabs(mesh, band, colours, brush, texel=0.01)
     np.testing.assert_allclose(np.abs(np.einsum("ij,ij->i", dabs.direction, plain.direction)), 1.0, atol=1e-9)
+
+
+def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphere):
+    from cp_stylize.strokes import form_field
+
+    mesh, band, atlas, texels = sphere
+    n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
+    equator = np.abs(n[:, 2]) < 0.5
+    along = form_field(band, np.zeros((band.size, 3)))                 # a sphere: no principal direction
+    assert np.median(np.abs(along[equator, 2])) > 0.85                 # the meridians: along z
+    around = form_field(band, np.zeros((band.size, 3)), around=True)
+    assert np.median(np.abs(around[equator, 2])) < 0.05                # the parallels: across z
+    given = np.cross(n, [0.0, 0.0, 1.0])                               # a sure field is kept as it is
+    given /= np.linalg.norm(given, axis=1, keepdims=True)
+    kept = form_field(band, given)
+    assert np.median(np.abs(np.einsum("ij,ij->i", kept[equator], given[equator]))) > 0.99

@@ -9,7 +9,8 @@ into a 1024 x 1024 image, as a user would, and the object rendered at 1024
 pixels: Suzanne (the demo's, two subdivision levels) and a UV sphere wearing
 Blender's forest photograph through their UVs, and a 2 x 1 frame wearing
 Blender's city photograph (buildings, a crane, road markings), seen straight
-on.  For each render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
+on; and each subject wearing its photograph (``<subject>_photo.jpg``).  For
+each stylized render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
 render) shows the strokes as they are; one more render of Suzanne under a
 raking light shows the relief.  ``gallery.jpg`` puts them side by side at a
 third of their size, a row a preset.
@@ -81,29 +82,31 @@ def frame(kind, obj, raking=False):
 
 
 def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", log=print):
-    """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds."""
+    """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds.
+    ``preset`` None renders the photograph itself."""
     from cp_stylize.blender import register, unregister
 
     obj, size = build(kind)
     scene.setup_render(size, samples)
     frame(kind, obj, raking)
     start = time.perf_counter()
-    register()
-    try:
-        settings = bpy.context.scene.cp_stylize
-        bpy.ops.cp_stylize.preset_load(name=preset)
-        settings.quality, settings.image_size = quality, str(SIZE)
-        bpy.context.view_layer.objects.active = obj
-        result = bpy.ops.object.cp_stylize()
-        if result != {"FINISHED"}:
-            raise RuntimeError(f"{preset} on {kind}: the Stylize operator returned {result}")
-    finally:
-        unregister()
+    if preset is not None:
+        register()
+        try:
+            settings = bpy.context.scene.cp_stylize
+            bpy.ops.cp_stylize.preset_load(name=preset)
+            settings.quality, settings.image_size = quality, str(SIZE)
+            bpy.context.view_layer.objects.active = obj
+            result = bpy.ops.object.cp_stylize()
+            if result != {"FINISHED"}:
+                raise RuntimeError(f"{preset} on {kind}: the Stylize operator returned {result}")
+        finally:
+            unregister()
     seconds = time.perf_counter() - start
     settings = bpy.context.scene.render.image_settings
     settings.file_format, settings.quality = "JPEG", 92
     scene.render(path)
-    log(f"{kind:8s} {preset:15s} {seconds:6.1f} s  {path}")
+    log(f"{kind:8s} {preset or 'photograph':15s} {seconds:6.1f} s  {path}")
     return seconds
 
 
@@ -141,6 +144,8 @@ def crop(path, kind):
 
 def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
     os.makedirs(out_dir, exist_ok=True)
+    for kind in subjects:            # the photographs themselves, to compare against
+        render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log)
     rows = []
     for preset in presets:
         cells = []

@@ -43,14 +43,19 @@ def array_to_image(name, array, *, colorspace="sRGB", float_buffer=False):
 def check_readable(image):
     """Raise StylizeError for images cp_stylize cannot read."""
     if image.source == "TILED":
-        raise StylizeError(f"image {image.name!r} is tiled (UDIM), which is not supported")
+        raise StylizeError(f"image {image.name!r} is a tiled (UDIM) image, which cp_stylize cannot read: use a single "
+                           "image for this material, or bake the tiles into one first")
     if image.source not in ("FILE", "GENERATED"):
-        raise StylizeError(f"image {image.name!r} has source {image.source}; use a still image")
+        kind = {"SEQUENCE": "an image sequence", "MOVIE": "a movie", "VIEWER": "a viewer image"}.get(
+            image.source, f"an image of source {image.source.lower()}")
+        raise StylizeError(f"image {image.name!r} is {kind}, which cp_stylize cannot read: use a still image "
+                           "(Image Editor > Image > Source: Single Image, or open one frame as an image)")
     path = None
     if image.source == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
-            raise StylizeError(f"image {image.name!r}: its file {path!r} is missing")
+            raise StylizeError(f"image {image.name!r}: its file {path!r} is missing: find it again (File > External "
+                               "Data > Find Missing Files), replace it (Image > Replace), or choose another image")
     if image.size[0] == 0 or image.size[1] == 0:
         if path is not None:
             raise StylizeError(f"image {image.name!r}: its file {path!r} could not be read (it is damaged, or not an "

@@ -127,7 +127,8 @@ def colour_input(material):
     tree = material.node_tree
     out = material_output(tree)
     if out is None:
-        raise StylizeError(f"material {material.name!r} has no Material Output node")
+        raise StylizeError(f"material {material.name!r} has no Material Output node: add one (Add > Output > "
+                           "Material Output in the Shader Editor) and connect its Surface to the shader")
     surface = _upstream(out.inputs["Surface"])
     if surface is None:
         muted = getattr(_linked(out.inputs["Surface"]), "node", None)
@@ -308,6 +309,7 @@ def wire(material, image, uv_name, changes):
         tex[SOURCE] = f"{current.node.name}/{current.identifier}" if current is not None else ""
         changes.link(tree, tex.outputs["Color"], socket)
     changes.set(tex, "image", image)
+    changes.set(tex, "interpolation", "Cubic")       # smooth where the render magnifies the texture
     uv = tree.nodes.get(UV_NODE)
     uv_linked = tex.inputs["Vector"].is_linked and tex.inputs["Vector"].links[0].from_node == uv
     if uv_name:

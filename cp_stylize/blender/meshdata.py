@@ -55,10 +55,16 @@ def _vectors(mesh, name, tris, loops, polygons, obj_name):
     attr = mesh.attributes.get(name)
     if attr is None or attr.data_type != "FLOAT_VECTOR" or attr.domain not in VECTOR_DOMAINS:
         found = ", ".join(repr(n) for n in vector_attributes(mesh)) or "none"
-        what = "no attribute" if attr is None else f"no vector attribute on points, corners or faces (but one " \
-                                                   f"of type {attr.data_type} on {attr.domain})"
-        raise StylizeError(f"the mesh of {obj_name!r} has {what} named {name!r} for the stroke direction "
-                           f"(its vector attributes: {found})")
+        kinds = {"FLOAT2": "a 2-D vector", "FLOAT_VECTOR": "a vector", "FLOAT_COLOR": "a colour",
+                 "BYTE_COLOR": "a colour", "FLOAT": "a number", "INT": "a whole number", "BOOLEAN": "a true/false",
+                 "QUATERNION": "a rotation", "FLOAT4X4": "a matrix", "INT8": "a whole number", "STRING": "a text"}
+        places = {"POINT": "points", "CORNER": "face corners", "FACE": "faces", "EDGE": "edges",
+                  "CURVE": "curves", "INSTANCE": "instances"}
+        what = "no attribute" if attr is None else (
+            f"no 3-D vector attribute on points, corners or faces (its attribute {name!r} holds "
+            f"{kinds.get(attr.data_type, attr.data_type.lower())} on its {places.get(attr.domain, attr.domain.lower())})")
+        raise StylizeError(f"the mesh of {obj_name!r} has {what} named {name!r} for the stroke direction: choose "
+                           f"one of its 3-D vector attributes ({found})")
     values = _get(attr.data, "vector", len(attr.data), np.float64, 3)
     if attr.domain == "POINT":
         return values[tris]

@@ -230,7 +230,7 @@ def _image_texture(source, mesh, faces, material, owner):
         raise StylizeError(f"material {material.name!r} reads the image {image.name!r} through UVs, but the mesh "
                            f"of {owner!r} has no UV map")
     uvs = mesh.uv_maps[name]
-    bad = ~np.isfinite(uvs[faces]).all(axis=-1)
+    bad = ~(np.isfinite(uvs[faces]) & (np.abs(uvs[faces]) < UV_LIMIT)).all(axis=-1)   # Blender keeps inf as 3.4e38
     if bad.any():
         count = len(np.unique(mesh.loops[faces][bad]))
         corners = "1 corner whose UV is" if count == 1 else f"{count} corners whose UVs are"
@@ -560,6 +560,8 @@ def _write_atlas_uvs(obj, loops, uvs, changes):
     return ATLAS_UV_NAME
 
 
+#: The longest file name most file systems take, in bytes.
+FILE_NAME_BYTES = 255
 #: File name endings of the formats results are saved in.
 EXTENSIONS = {"PNG": ".png", "OPEN_EXR": ".exr"}
 
@@ -571,7 +573,12 @@ def _store(image, output, name, changes, file_format="PNG"):
         image.file_format = file_format         # what the packed file holds: a float relief stays float
         image.pack()
         return None
-    path = images.free_path(save_folder(), bpy.path.clean_name(name), EXTENSIONS[file_format])
+    stem = bpy.path.clean_name(name)
+    if len((stem + ".000" + EXTENSIONS[file_format]).encode("utf-8")) > FILE_NAME_BYTES:
+        raise StylizeError(f"the image name {name!r} is too long for a file name ({len(stem.encode('utf-8'))} bytes; "
+                           f"files may have {FILE_NAME_BYTES}): choose a shorter Image Name, or choose Pack; "
+                           "nothing was changed")
+    path = images.free_path(save_folder(), stem, EXTENSIONS[file_format])
     try:
         images.write_file(image, path, file_format)
     except (OSError, RuntimeError) as err:
@@ -647,6 +654,9 @@ def _material_for(obj, index, output, changes, copies):
     changes.set(slot, "material", new)
     return new
 
+
+#: A UV coordinate this large is no place on a texture: Blender stores an infinite UV as the largest float.
+UV_LIMIT = 1e9
 
 #: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).
 RELIEF_THICKNESS = 0.25

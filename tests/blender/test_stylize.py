@@ -320,8 +320,8 @@ def test_the_stroke_direction_is_read_from_a_mesh_attribute(addon):
     _vector_attribute(obj, "across", (1.0, 0.0, 0.0), domain="FACE")
     addon.mode, addon.direction = "ced", "attribute"
     addon.direction_attribute = "nothing"
-    with pytest.raises(Exception, match=r"has no attribute named 'nothing' for the stroke direction "
-                                        r"\(its vector attributes: 'comb', 'across'\)"):
+    with pytest.raises(Exception, match=r"has no attribute named 'nothing' for the stroke direction: choose one "
+                                        r"of its 3-D vector attributes \('comb', 'across'\)"):
         stylize.prepare(obj, addon.to_settings())
     addon.direction_attribute = "comb"
     job = stylize.prepare(obj, addon.to_settings())
