@@ -42,14 +42,15 @@ def test_renders_show_the_textured_object_and_its_change(demo_out):
     assert np.abs(centre - background).max() > 0.1
     obj = np.abs(before - background).max(axis=2) > 0.05
     assert obj.mean() > 0.15 and before[obj].std() > 0.03
-    # Starry Night: the after render changed, and the object turned to the painting's blues, with its
-    # star yellows where the photograph was light or yellow-green (the leaves)
+    # Starry Night: the after render changed, and the object turned to the painting's blues, with star yellows
+    # in it; the subject keeps its tones (the light eyes stay light on the dark wood)
     assert np.abs(after - before).mean() > 0.01
     blue = lambda img: (img[..., 2] > img[..., 0] + 0.05)[obj].mean()
     yellow = lambda img: ((img[..., 0] > img[..., 2] + 0.1) & (img[..., 1] > img[..., 2] + 0.1))[obj].mean()
-    assert blue(after) > 0.3 and blue(after) > blue(before) + 0.2
-    assert yellow(after) > 0.1 and yellow(after) > yellow(before) + 0.05
-    assert blue(after) + yellow(after) > 0.7                     # the palette's two families cover it
+    assert blue(after) > 0.5 and blue(after) > blue(before) + 0.3
+    assert yellow(after) > 0.02 and yellow(after) > yellow(before) + 0.02
+    lum = lambda img: img[obj] @ np.array([0.2126, 0.7152, 0.0722])
+    assert np.corrcoef(lum(before), lum(after))[0, 1] > 0.5
 
 
 def test_saved_file_holds_the_stylized_material_and_keeps_the_original(demo_out):
