@@ -55,7 +55,7 @@ MIN_TEXELS = 3.0
 COVER = 2.0
 #: A finer layer's dab goes where its colour differs from the coarser layer's by more than this
 #: (OKLab distance; certainly at twice).
-DETAIL = 0.04
+DETAIL = 0.025
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
 #: gone at twice.
 CLIP = 0.2
@@ -63,9 +63,14 @@ CLIP = 0.2
 LENGTH_SPREAD = 0.12
 #: Swirls (:class:`Swirls`) are this many dab lengths across.
 SWIRL_SIZE = 4.0
+#: Swirls begin at this OKLab lightness of the colours under a dab and take full effect 0.2 above it.
+SWIRL_LIGHT = 0.45
 #: Of the height a later dab paints over, this share is scraped away (the rest stays under it: paint
 #: builds up where strokes overlap).
 FLATTEN = 0.35
+#: A dab's paint thins out over this share of its half width at its sides, and of its half length at
+#: its head (half of it at its tail), so that its edge meets the paint around it without a step.
+EDGE = 0.4
 #: How deep the bristle marks in a dab are, as a share of its thickness.
 GROOVE_DEPTH = 0.12
 #: Bristle grooves are at least this many texels apart.
@@ -82,7 +87,8 @@ class Brush:
     layers, each :data:`LAYER_RATIO` times finer; ``jitter`` in [0, 1]: how
     far a dab's colour moves towards a neighbouring palette colour;
     ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
-    no structure; ``strength`` in [0, 1]: the dabs' opacity; ``seed``: the
+    no structure and is light (:data:`SWIRL_LIGHT`: as in the painting's sky;
+    a dark, flat part keeps calm strokes); ``strength`` in [0, 1]: the dabs' opacity; ``seed``: the
     same seed places the same dabs; ``fidelity`` in [0, 1]: how much of the
     picture's own colours the run keeps (the palette's pull on the jitter
     falls with it).
@@ -214,9 +220,10 @@ class StrokeField:
     def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None):
         """Unit directions (M, 3) at surface points (M, 3) with normals (M, 3): the structure's, blended
         by doubled angles with a given ``field`` (N, 3) of the band, whose length is the confidence in
-        it, and, by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure
+        it (a field trusted at :data:`FALLBACK_TRUST` or less yields where the structure is sure), and, by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure
         over a wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes
-        ring his stars) and, where that is weak too, with ``swirls``."""
+        ring his stars) and, where that is weak too, with ``swirls``.  ``swirl`` is a number or one
+        for each point (M,)."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
         none = np.linalg.norm(direction, axis=1) < 0.5
@@ -229,8 +236,13 @@ class StrokeField:
             trust = np.clip(np.linalg.norm(np.asarray(field[nearest], dtype=np.float64), axis=1), 0.0, 1.0)
             trust[np.linalg.norm(given, axis=1) < 0.5] = 0.0          # no direction there (a flat part)
             given[trust == 0] = direction[trust == 0]
+            # a fallback (trusted at FALLBACK_TRUST or less) yields to the picture's structure as far as
+            # that is sure; a field trusted fully does not
+            fallback = np.clip((1.0 - trust) / (1.0 - FALLBACK_TRUST), 0.0, 1.0)
+            trust = np.where(trust > 0, 1.0 - fallback * confidence, 0.0)
             direction = _blend(given, direction, trust, normals)
-        if swirl > 0 and (broad is not None or swirls is not None):
+        swirl = np.broadcast_to(np.asarray(swirl, dtype=np.float64), (len(points),))
+        if swirl.any() and (broad is not None or swirls is not None):
             if broad is not None:
                 wide = broad._nearest(points)
                 around = _tangent(broad.direction[wide].astype(np.float64), normals)
@@ -243,6 +255,11 @@ class StrokeField:
                 around = swirls(points, normals)
             direction = _blend(direction, around, 1.0 - swirl * (1.0 - confidence), normals)
         return direction
+
+
+#: The confidence :func:`form_field` gives its meridians or parallels where the form has no direction:
+#: a strong structure of the picture turns strokes away from them (see :meth:`StrokeField.at`).
+FALLBACK_TRUST = 0.5
 
 
 def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
@@ -263,7 +280,7 @@ def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
     unsure = np.linalg.norm(unit, axis=1) < 0.5
     unit[unsure] = fallback[unsure]
     blended = _blend(unit, fallback, np.where(unsure, 0.0, trust), normals)
-    return blended * np.maximum(trust, reach)[:, None]
+    return blended * np.maximum(trust, FALLBACK_TRUST * reach)[:, None]
 
 
 def _unit(v):
@@ -347,7 +364,8 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
             points, faces, bary = points[chosen], faces[chosen], bary[chosen]
         normals = mesh.normal(points, faces, bary)
         pieces = mesh.piece[faces]
-        direction = lines.at(points, normals, brush.swirl, swirls, field, broad)
+        light = np.clip((structure[lines._nearest(points), 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
+        direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad)
         count = len(points)
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(count) - 1.0))
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
@@ -670,8 +688,11 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     # raised paint: each dab its own thickness, a ridge where the brush lifted (the tail) and along its
     # edges (paint pushed aside), a little bristle texture on top
     thickness = 0.7 + 0.6 * ((3.1 * phase) % 1.0)
-    ridge = 0.35 * np.exp(-(((along - 0.8) / 0.15) ** 2)) + 0.25 * across**4
-    profile = thickness * (0.75 + ridge + GROOVE_DEPTH * groove)
+    ridge = 0.35 * np.exp(-(((along - 0.8) / 0.15) ** 2)) + 0.1 * across**4
+    # the paint thins to nothing at the dab's sides and head: it neither stands as a step above the
+    # paint around it nor scrapes a groove into it
+    side = _smooth((1.0 - np.abs(across)) / EDGE) * _smooth((along + 1.0) / EDGE) * _smooth((1.0 - along) / (0.5 * EDGE))
+    profile = thickness * side * (0.75 + ridge + GROOVE_DEPTH * groove)
     shade = 1.0 + 0.03 * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade = i[order], j[order], alpha[order], profile[order], shade[order]
@@ -680,9 +701,15 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     weight = alpha * shown * shade
     paint = np.asarray(colour)[i - first]
     added = np.column_stack([np.add.reduceat(weight * paint[:, c], heads) for c in range(3)])
-    height_through, height_shown = _over(FLATTEN * alpha, heads)
+    height_through, height_shown = _over(FLATTEN * alpha * side[order], heads)
     height_added = np.add.reduceat(alpha * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added
+
+
+def _smooth(x):
+    """Hermite's smooth step of ``x`` clipped to [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 def _over(alpha, heads):

@@ -38,7 +38,8 @@ def test_hues_keep_to_the_palette_colours_of_their_hue():
     grey, yellow = np.array([0.55, 0.55, 0.55]), np.array([0.65, 0.55, 0.1])
     picture = np.vstack([np.tile(grey, (500, 1)), np.tile(yellow, (500, 1)), np.linspace(0, 1, 1000)[:, None] * [1, 1, 1]])
     out = map_to_palette(picture, palette, weights)
-    lab_blue, lab_yellow = to_oklab(palette[4]), to_oklab(palette[8])
+    hexes = [("#%02x%02x%02x" % tuple(np.round(np.asarray(c[:3]) * 255).astype(int))) for c in palette]
+    lab_blue, lab_yellow = to_oklab(palette[hexes.index("#3c5fc0")]), to_oklab(palette[hexes.index("#f3d54e")])
     assert hue_difference(to_oklab(out[0]), lab_blue) < 30
     assert hue_difference(to_oklab(out[500]), lab_yellow) < 30
     # a red takes the palette's warmest colour, not a blue

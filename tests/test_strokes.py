@@ -151,16 +151,67 @@ def test_dabs_keep_a_direction_where_a_given_field_has_none(sphere):
 
 
 def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphere):
-    from cp_stylize.strokes import form_field
+    from cp_stylize.strokes import FALLBACK_TRUST, form_field
 
     mesh, band, atlas, texels = sphere
     n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
     equator = np.abs(n[:, 2]) < 0.5
     along = form_field(band, np.zeros((band.size, 3)))                 # a sphere: no principal direction
-    assert np.median(np.abs(along[equator, 2])) > 0.85                 # the meridians: along z
+    length = np.linalg.norm(along, axis=1)
+    assert np.median(np.abs(along[equator, 2]) / length[equator]) > 0.85   # the meridians: along z
+    # ... as a fallback, trusted at half, which a sure structure of the picture overrules
+    assert np.all(length <= FALLBACK_TRUST + 1e-9) and np.median(length[equator]) > 0.9 * FALLBACK_TRUST
     around = form_field(band, np.zeros((band.size, 3)), around=True)
-    assert np.median(np.abs(around[equator, 2])) < 0.05                # the parallels: across z
+    assert np.median(np.abs(around[equator, 2]) / length[equator]) < 0.05  # the parallels: across z
     given = np.cross(n, [0.0, 0.0, 1.0])                               # a sure field is kept as it is
     given /= np.linalg.norm(given, axis=1, keepdims=True)
     kept = form_field(band, given)
     assert np.median(np.abs(np.einsum("ij,ij->i", kept[equator], given[equator]))) > 0.99
+
+
+def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = _stripes(band, [0, 0, 1])                    # stripes round the z axis: strokes run around it
+    brush = Brush(width=0.12, length=0.48, layers=1, seed=3)
+    n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
+    meridians = np.array([0.0, 0.0, 1.0]) - n[:, 2:3] * n
+    meridians /= np.maximum(np.linalg.norm(meridians, axis=1, keepdims=True), 1e-12)
+    plain = place_dabs(mesh, band, colours, brush, texel=0.01)
+    unsure = place_dabs(mesh, band, colours, brush, texel=0.01, field=0.5 * meridians)
+    sure = place_dabs(mesh, band, colours, brush, texel=0.01, field=meridians)
+    equator = np.abs(plain.centre[:, 2]) < 0.5
+    along = lambda dabs: np.abs(np.einsum("ij,ij->i", dabs.direction, plain.direction))[equator]
+    assert np.median(along(unsure)) > 0.95                 # the stripes win over a half-trusted field
+    assert np.median(np.abs(sure.direction[equator, 2])) > 0.95     # a sure field wins over the stripes
+
+
+def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere):
+    from cp_stylize.oklab import to_oklab
+
+    mesh, band, atlas, texels = sphere
+    for grey, calm in ((0.08, True), (0.85, False)):
+        colours = np.full((band.size, 3), grey, np.float32)
+        colours += 0.01 * np.random.default_rng(2).random(colours.shape, np.float32)   # no structure: noise
+        assert (to_oklab(colours[:1])[0, 0] < 0.45) == calm
+        kw = dict(texel=0.01)
+        straight = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, seed=5), **kw)
+        swirled = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, seed=5, swirl=1.0), **kw)
+        np.testing.assert_array_equal(straight.centre, swirled.centre)
+        agree = np.abs(np.einsum("ij,ij->i", straight.direction, swirled.direction))
+        if calm:
+            np.testing.assert_allclose(agree, 1.0, atol=1e-6)
+        else:
+            assert np.mean(agree < 0.9) > 0.3
+
+
+def test_a_dabs_paint_thins_to_nothing_at_its_edge(sphere):
+    mesh, band, atlas, texels = sphere
+    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)   # 16 texels wide
+    base = np.zeros((len(texels.points), 3))
+    out, height = paint(one, texels, base, np.tile(one.colour, (len(base), 1)))
+    across = np.abs(texels.points @ np.cross(one.normal[0], one.direction[0]))
+    along = np.abs((texels.points - one.centre[0]) @ one.direction[0])
+    on = (out[:, 0] > 0.5) & (along < 0.1)                          # painted, in the dab's middle
+    assert height[on & (across < 0.05)].min() > 0.5 * height.max()   # its body stands
+    sides = on & (across > 0.17)
+    assert sides.sum() > 5 and height[sides].max() < 0.1 * height.max()   # its sides meet the ground without a step
