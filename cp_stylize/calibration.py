@@ -4,14 +4,14 @@ The time constants of :func:`cp_stylize.pipeline.estimate` were measured on a
 quiet two-core machine.  :func:`measure` times a short job of the same kinds of
 work (sparse products on arrays larger than a processor's cache, as the
 extension and the diffusion steps make, sorting and gathers, as the closest
-point search and the bake-out make) in processor time, so that other work on
-the computer does not count, and :func:`machine_speed` divides it by that
+point search and the bake-out make) in processor time, the least of several
+runs, so that other work on the computer counts as little as it can, and :func:`machine_speed` divides it by that
 machine's time: the factor the estimate's times are multiplied by.  It says
 how fast the computer is, not how busy: a run on a computer busy with other
-work takes longer than its estimate.  It is measured once and kept, in memory
-and, given a path, in a small JSON file, so that a later session does not
-measure it again; a file made on another computer (another name, processor or
-core count) is measured again.
+work takes longer than its estimate.  It is measured once a session and kept,
+in memory and, given a path, in a small JSON file that keeps the least of all
+sessions' measures; a file made on another computer (another name, processor or
+core count) counts for nothing.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def _job():
     return work
 
 
-def measure(repeat=3):
+def measure(repeat=7):
     """The least processor time (seconds) of ``repeat`` runs of the calibration job, about 0.03 s each
 
     Processor time, on one thread: how fast this computer is, whatever else
@@ -86,21 +86,24 @@ def _machine():
 def machine_speed(path=None):
     """How many times longer than the reference machine this computer takes: the estimate's time factor.
 
-    Measured once (:func:`measure`, well under a second) and kept in memory;
-    with ``path``, also read from and written to that JSON file (a file that
-    cannot be read, or was written on another computer, is measured again;
-    one that cannot be written is left as it is).
+    Measured once a session (:func:`measure`, well under a second) and kept in
+    memory; with ``path``, the least time of every session is kept in that
+    JSON file: other work slows even processor time (its caches are shared),
+    so the least measure is the computer's own speed.  A file that cannot be
+    read, or was written on another computer, counts for nothing; one that
+    cannot be written is left as it is.
     """
     key = os.fspath(path) if path is not None else None
     with _lock:
         if key in _speed:
             return _speed[key]
-        seconds = _read(key) if key else None
-        if seconds is None:
-            seconds = _speed.get("measured") or measure()
-            _speed["measured"] = seconds
-            if key:
-                _write(key, seconds)
+        kept = _read(key) if key else None
+        seconds = _speed.get("measured") or measure()
+        _speed["measured"] = seconds
+        if kept is not None and kept <= seconds:
+            seconds = kept
+        elif key:
+            _write(key, seconds)
         low, high = SPEED_LIMITS
         _speed[key] = min(max(seconds / REFERENCE_SECONDS, low), high)
         return _speed[key]

@@ -688,7 +688,7 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     # raised paint: each dab its own thickness, a ridge where the brush lifted (the tail) and along its
     # edges (paint pushed aside), a little bristle texture on top
     thickness = 0.7 + 0.6 * ((3.1 * phase) % 1.0)
-    ridge = 0.35 * np.exp(-(((along - 0.8) / 0.15) ** 2)) + 0.1 * across**4
+    ridge = 0.1 * np.exp(-(((along - 0.7) / 0.25) ** 2)) + 0.1 * across**4
     # the paint thins to nothing at the dab's sides and head: it neither stands as a step above the
     # paint around it nor scrapes a groove into it
     side = _smooth((1.0 - np.abs(across)) / EDGE) * _smooth((along + 1.0) / EDGE) * _smooth((1.0 - along) / (0.5 * EDGE))

@@ -93,3 +93,32 @@ def render(path):
     scene.render.filepath = os.path.abspath(path)
     bpy.ops.render.render(write_still=True)
     return path
+
+
+def stylize(obj, preset, quality="STANDARD", image_size=None):
+    """Run the Stylize operator on ``obj`` with ``preset`` loaded, as a user would (the add-on registered
+    for the run only); raises if it does not finish."""
+    from cp_stylize.blender import register, unregister
+
+    register()
+    try:
+        settings = bpy.context.scene.cp_stylize
+        bpy.ops.cp_stylize.preset_load(name=preset)
+        settings.quality = quality.upper()
+        if image_size is not None:
+            settings.image_size = str(image_size)
+        bpy.context.view_layer.objects.active = obj
+        result = bpy.ops.object.cp_stylize()
+        if result != {"FINISHED"}:
+            raise RuntimeError(f"{preset} on {obj.name}: the Stylize operator returned {result}")
+    finally:
+        unregister()
+
+
+def read_image(path):
+    """An image file as a float array (H, W, 3), row 0 at the top."""
+    image = bpy.data.images.load(path, check_existing=False)
+    try:
+        return images.image_to_array(image)[::-1, :, :3].astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)

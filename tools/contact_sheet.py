@@ -50,36 +50,15 @@ def build(kind):
 
 def render_cell(kind, preset, path, quality, resolution, samples):
     """Render ``kind`` after ``preset`` (None: the photograph itself) to ``path``; returns seconds."""
-    from cp_stylize.blender import register, unregister
-
     obj = build(kind)
     scene.setup_render(resolution, samples)
     scene.frame_objects([obj], margin=0.62)   # the box's diagonal: the object fills the frame
     start = time.perf_counter()
     if preset is not None:
-        register()
-        try:
-            settings = bpy.context.scene.cp_stylize
-            bpy.ops.cp_stylize.preset_load(name=preset)
-            settings.quality = quality.upper()
-            bpy.context.view_layer.objects.active = obj
-            result = bpy.ops.object.cp_stylize()
-            if result != {"FINISHED"}:
-                raise RuntimeError(f"{preset} on {kind}: the Stylize operator returned {result}")
-        finally:
-            unregister()
+        scene.stylize(obj, preset, quality)
     seconds = time.perf_counter() - start
     scene.render(path)
     return seconds
-
-
-def read(path):
-    """A rendered PNG as a float image (H, W, 3), row 0 at the top."""
-    image = bpy.data.images.load(path, check_existing=False)
-    try:
-        return images.image_to_array(image)[::-1, :, :3].astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
 
 
 def run(out_dir, *, quality="preview", resolution=(320, 280), samples=8, docs=None, columns=5, log=print):
@@ -92,7 +71,7 @@ def run(out_dir, *, quality="preview", resolution=(320, 280), samples=8, docs=No
             seconds = render_cell(kind, preset, path, quality, resolution, samples)
             label = "PHOTOGRAPH" if preset is None else load_preset(preset).name.upper()
             log(f"{kind:8s} {preset or 'photograph':22s} {seconds:6.1f} s  {path}")
-            cells.append(figures.panel(read(path), label))
+            cells.append(figures.panel(scene.read_image(path), label))
         cells += [np.zeros((1, 1, 3))] * (-len(cells) % columns)      # each object starts a row
     sheet = figures.grid(cells, columns=columns)
     path = os.path.join(out_dir, "contact_sheet.png")

@@ -84,39 +84,18 @@ def frame(kind, obj, raking=False):
 def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", log=print):
     """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds.
     ``preset`` None renders the photograph itself."""
-    from cp_stylize.blender import register, unregister
-
     obj, size = build(kind)
     scene.setup_render(size, samples)
     frame(kind, obj, raking)
     start = time.perf_counter()
     if preset is not None:
-        register()
-        try:
-            settings = bpy.context.scene.cp_stylize
-            bpy.ops.cp_stylize.preset_load(name=preset)
-            settings.quality, settings.image_size = quality, str(SIZE)
-            bpy.context.view_layer.objects.active = obj
-            result = bpy.ops.object.cp_stylize()
-            if result != {"FINISHED"}:
-                raise RuntimeError(f"{preset} on {kind}: the Stylize operator returned {result}")
-        finally:
-            unregister()
+        scene.stylize(obj, preset, quality, SIZE)
     seconds = time.perf_counter() - start
     settings = bpy.context.scene.render.image_settings
     settings.file_format, settings.quality = "JPEG", 92
     scene.render(path)
     log(f"{kind:8s} {preset or 'photograph':15s} {seconds:6.1f} s  {path}")
     return seconds
-
-
-def read(path):
-    """A rendered image as a float array (H, W, 3), row 0 at the top."""
-    image = bpy.data.images.load(path, check_existing=False)
-    try:
-        return images.image_to_array(image)[::-1, :, :3].astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
 
 
 def save_jpeg(path, pixels):
@@ -137,7 +116,7 @@ def save_jpeg(path, pixels):
 
 def crop(path, kind):
     """The 100 % crop of a render: CROP x CROP pixels at :data:`CROPS` of the render."""
-    pixels = read(path)
+    pixels = scene.read_image(path)
     r, c = (int(share * n) for share, n in zip(CROPS[kind], pixels.shape[:2]))
     return save_jpeg(path.replace(".jpg", "_crop.jpg"), pixels[r:r + CROP, c:c + CROP])
 
@@ -153,7 +132,7 @@ def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
             path = os.path.join(out_dir, f"{kind}_{preset}.jpg")
             render(kind, preset, path, log=log)
             crop(path, kind)
-            cells.append(figures.panel(read(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
+            cells.append(figures.panel(scene.read_image(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
         rows.append(cells)
     raking = os.path.join(out_dir, "relief_raking.jpg")
     render("suzanne", "sunflower_vase", raking, raking=True, log=log)

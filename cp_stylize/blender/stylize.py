@@ -417,6 +417,10 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     check_object(obj)
     if output.storage == "SAVE":
         save_folder()
+        name, relief_name = result_names(obj, output)
+        _file_stem(name, "PNG")
+        if settings.relief > 0 and settings.strokes > 0:
+            _file_stem(relief_name, "OPEN_EXR")
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
     if settings.stroke_direction == "axis":
         # the axis is the object's; the core sees the mesh in world units without its rotation
@@ -566,6 +570,23 @@ FILE_NAME_BYTES = 255
 EXTENSIONS = {"PNG": ".png", "OPEN_EXR": ".exr"}
 
 
+def result_names(obj, output):
+    """The names of a run's colour image and relief image on ``obj``."""
+    name = output.image_name or f"{obj.name}_stylized"
+    return name, f"{name}_relief"
+
+
+def _file_stem(name, file_format):
+    """The file name (without its ending) an image ``name`` is saved under; raises StylizeError where it
+    is too long for a file system, with a numbered ending."""
+    stem = bpy.path.clean_name(name)
+    if len((stem + ".000" + EXTENSIONS[file_format]).encode("utf-8")) > FILE_NAME_BYTES:
+        raise StylizeError(f"the image name {name!r} is too long for a file name ({len(stem.encode('utf-8'))} bytes; "
+                           f"files may have {FILE_NAME_BYTES}): choose a shorter Image Name, or choose Pack; "
+                           "nothing was changed")
+    return stem
+
+
 def _store(image, output, name, changes, file_format="PNG"):
     """Pack the image, or save it (as a PNG, or an OpenEXR for heights) next to the .blend under a name no
     file has."""
@@ -573,11 +594,7 @@ def _store(image, output, name, changes, file_format="PNG"):
         image.file_format = file_format         # what the packed file holds: a float relief stays float
         image.pack()
         return None
-    stem = bpy.path.clean_name(name)
-    if len((stem + ".000" + EXTENSIONS[file_format]).encode("utf-8")) > FILE_NAME_BYTES:
-        raise StylizeError(f"the image name {name!r} is too long for a file name ({len(stem.encode('utf-8'))} bytes; "
-                           f"files may have {FILE_NAME_BYTES}): choose a shorter Image Name, or choose Pack; "
-                           "nothing was changed")
+    stem = _file_stem(name, file_format)
     path = images.free_path(save_folder(), stem, EXTENSIONS[file_format])
     try:
         images.write_file(image, path, file_format)
@@ -682,8 +699,7 @@ def apply(job):
     """
     obj = _current_object(job)
     result, output = job.result, job.output
-    name = output.image_name or f"{obj.name}_stylized"
-    relief_name = f"{name}_relief"
+    name, relief_name = result_names(obj, output)
     replaced = results.Replaced()
     with Changes() as changes:
         uv_name = job.uv_name

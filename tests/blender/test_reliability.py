@@ -109,6 +109,24 @@ def test_saving_next_to_the_blend_never_overwrites_a_file(addon, tmp_path, capfd
     assert "wood.001.png" in capfd.readouterr().out
 
 
+@pytest.mark.parametrize("name, relief", [("y" * 250, False), ("y" * 242, True)])
+def test_an_image_name_too_long_for_a_file_is_refused_before_the_run(addon, tmp_path, monkeypatch, name, relief):
+    from cp_stylize.blender import stylize
+
+    sphere(material=image_material("Painted", halves("source")))
+    save_blend(tmp_path)
+    if relief:                                     # the relief's file, "<name>_relief.000.exr", is the longer one
+        addon.strokes, addon.relief = 1.0, 0.5
+    addon.storage, addon.image_name = "SAVE", name
+    monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
+    before, on_disk = snapshot(), files(tmp_path)
+    refused = name + "_relief" if relief else name
+    assert run_error() == (f"the image name {refused!r} is too long for a file name ({len(refused)} bytes; files may "
+                           "have 255): choose a shorter Image Name, or choose Pack; nothing was changed")
+    assert_unchanged(before, snapshot())
+    assert files(tmp_path) == on_disk
+
+
 def test_a_second_blend_in_the_same_folder_keeps_its_image(addon, tmp_path):
     sphere(material=image_material("Painted", halves("source")))
     save_blend(tmp_path, "first.blend")
