@@ -253,6 +253,26 @@ def test_an_object_cycles_cannot_bake_is_refused_with_what_to_change(addon, case
     assert_unchanged(before, snapshot())
 
 
+def test_a_procedural_colour_is_refused_while_cycles_is_disabled(addon, monkeypatch):
+    """Cycles is disabled for real (Preferences > Add-ons), as the bpy module allows.  The snapshots read
+    Cycles's settings, so they are taken with Cycles enabled, before it is disabled and after it is enabled again
+    (its settings live on in the scene meanwhile)."""
+    from cp_stylize import band
+
+    sphere(material=procedural_material())
+    monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
+    before = snapshot()
+    assert bpy.ops.preferences.addon_disable(module="cycles") == {"FINISHED"}
+    try:
+        assert "cycles" not in bpy.context.preferences.addons and not hasattr(bpy.context.scene, "cycles")
+        message = run_error()
+    finally:
+        bpy.ops.preferences.addon_enable(module="cycles")
+    assert message == ("procedural colours are baked with Cycles, which is disabled: enable it in Preferences > "
+                       "Add-ons")
+    assert_unchanged(before, snapshot())
+
+
 def test_slots_sharing_a_material_share_its_copy(addon):
     material = image_material("Painted", halves("source"))
     obj = sphere(material=material)
@@ -1129,6 +1149,27 @@ def test_a_shared_mesh_with_unusable_uvs_gets_a_map_its_twin_does_not_render(add
     assert twin.material_slots[0].material.node_tree.nodes["cp_stylize UV"].uv_map == "cp_stylize_atlas"
 
 
+def test_an_atlas_its_linked_duplicate_renders_through_is_not_rewritten(addon, monkeypatch):
+    """A mesh without UVs gets the atlas 'cp_stylize_atlas' as its render UV map; after Alt+D the twin shows an
+    image of its own through it, so a run that would rewrite it is refused before the run."""
+    obj = sphere(material=procedural_material())
+    remove_uvs(obj)
+    assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+    mesh = obj.data
+    assert [(l.name, l.active_render) for l in mesh.uv_layers] == [("cp_stylize_atlas", True)]
+    twin = _twin(obj, "linked duplicate")
+    # the user's edit makes the atlas unusable: one triangle's UVs merged into one point (a face at a pole)
+    face = next(p for p in mesh.polygons if p.loop_total == 3)
+    atlas = mesh.uv_layers["cp_stylize_atlas"].data
+    for loop in face.loop_indices:
+        atlas[loop].uv = atlas[face.loop_start].uv
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        f"{obj.name!r} has no usable UV map for the result (1 face(s) have UV triangles of zero area) and cannot get "
+        f"a new one: its mesh {mesh.name!r} is shared with {twin.name!r}, and rewriting its UV map "
+        f"'cp_stylize_atlas' could change how it renders: give {obj.name!r} its own mesh first (Object > Relations > "
+        "Make Single User > Object & Data)")
+
+
 def _procedural_on_uvs(material):
     """Feed ``material``'s checker from the UV output of a Texture Coordinate node."""
     tree = material.node_tree
@@ -1262,6 +1303,49 @@ def test_messages_name_the_real_cause(addon, case, message):
     before = snapshot()
     assert run_error() == message
     assert_unchanged(before, snapshot())
+
+
+def test_an_image_sequence_is_refused_with_how_to_read_one_frame(addon, tmp_path, monkeypatch):
+    image = halves("frames", pack=False)
+    image.filepath_raw, image.file_format = str(tmp_path / "frame_0001.png"), "PNG"
+    image.save()
+    image.source = "SEQUENCE"
+    sphere(material=image_material("Painted", image))
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        f"image {image.name!r} is an image sequence, which cp_stylize cannot read: use a still image (Image Editor > "
+        "Image > Source: Single Image, or open one frame as an image)")
+
+
+@pytest.mark.parametrize("case", ["missing file", "tiled image"])
+def test_a_missing_image_file_and_a_tiled_image_are_refused_with_what_to_do(addon, tmp_path, monkeypatch, case):
+    if case == "missing file":
+        save_blend(tmp_path)
+        image = halves("wood", pack=False)
+        image.filepath_raw, image.file_format = str(tmp_path / "textures" / "wood.png"), "PNG"
+        os.mkdir(tmp_path / "textures")
+        image.save()
+        image.filepath = "//textures/wood.png"          # relative to the .blend, as Blender stores it
+        os.remove(tmp_path / "textures" / "wood.png")   # moved or deleted since
+        message = (f"image {image.name!r}: its file {str(tmp_path / 'textures' / 'wood.png')!r} is missing: find it "
+                   "again (File > External Data > Find Missing Files), replace it (Image > Replace), or choose "
+                   "another image")
+    else:
+        image = bpy.data.images.new("Tiles", 64, 64, tiled=True)
+        image.tiles.new(tile_number=1002)
+        message = (f"image {image.name!r} is a tiled (UDIM) image, which cp_stylize cannot read: use a single image "
+                   "for this material, or bake the tiles into one first")
+    sphere(material=image_material("Painted", image))
+    assert _refused_before_the_band_is_built(monkeypatch) == message
+
+
+def test_a_material_without_a_material_output_is_refused_with_how_to_add_one(addon, monkeypatch):
+    material = image_material("Painted", halves("source"))
+    tree = material.node_tree
+    tree.nodes.remove(next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"))
+    sphere(material=material)
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        f"material {material.name!r} has no Material Output node: add one (Add > Output > Material Output in the "
+        "Shader Editor) and connect its Surface to the shader")
 
 
 def test_edit_mode_is_refused_by_the_poll_with_a_reason(addon):
