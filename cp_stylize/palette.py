@@ -49,7 +49,7 @@ HUE_WEIGHT = 3.0
 TURN_GREY = 0.25
 #: The lightness of the result: this share from the palette's lightness at the colour's tone rank
 #: (a smooth ramp that keeps the picture's tonal detail), the rest from the chosen colours.
-TONE_KEEP = 0.6
+TONE_KEEP = 0.85
 #: How sharply the palette colours that fit best win, for the lightness and for the hue and chroma (the
 #: fit's exponent per unit of squared distance).
 SOFT = 4.0

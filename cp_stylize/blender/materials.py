@@ -127,6 +127,10 @@ def colour_input(material):
     tree = material.node_tree
     out = material_output(tree)
     if out is None:
+        if any(n.type == "OUTPUT_MATERIAL" for n in tree.nodes):
+            raise StylizeError(f"material {material.name!r} has a Material Output node for EEVEE only, and the "
+                               "result is read as Cycles renders it: set the node's Target to All (the node's "
+                               "sidebar, Node tab > Properties), or add an output for Cycles")
         raise StylizeError(f"material {material.name!r} has no Material Output node: add one (Add > Output > "
                            "Material Output in the Shader Editor) and connect its Surface to the shader")
     surface = _upstream(out.inputs["Surface"])

@@ -322,6 +322,25 @@ def _listed(names):
     return shown[0] if len(shown) == 1 else ", ".join(shown[:-1]) + f" and {shown[-1]}"
 
 
+def _shared_uv_map(obj, mesh):
+    """Why a new atlas cannot be written because other objects share ``obj``'s mesh (None if it can): it
+    would become their render UV map (a mesh without UV maps), or rewrite the ``cp_stylize_atlas`` map
+    they may render through."""
+    sharing = [o.name for o in bpy.data.objects if o.data == obj.data and o != obj]
+    if not sharing:
+        return None
+    renders = "it renders" if len(sharing) == 1 else "they render"
+    if not mesh.uv_maps:
+        return (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and a new UV map would become the "
+                f"render UV map there too, changing how {renders}: give {obj.name!r} its own mesh first (Object > "
+                "Relations > Make Single User > Object & Data), or add a UV map to the mesh")
+    if ATLAS_UV_NAME in obj.data.uv_layers:
+        return (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and rewriting its UV map "
+                f"{ATLAS_UV_NAME!r} could change how {renders}: give {obj.name!r} its own mesh first (Object > "
+                "Relations > Make Single User > Object & Data)")
+    return None
+
+
 def _no_new_uv_map(obj, mesh):
     """Why no new UV map can be written onto ``obj``'s mesh for any result (None if one can)."""
     data = obj.data
@@ -361,7 +380,7 @@ def _atlas_plan(obj, mesh, settings, keep, bake_needed):
     layers = obj.data.uv_layers
     render = mesh.render_uv
     stored = ATLAS_UV_NAME if ATLAS_UV_NAME in mesh.uv_maps and ATLAS_UV_NAME != render else None
-    why = _no_new_uv_map(obj, mesh)
+    why = _no_new_uv_map(obj, mesh) or _shared_uv_map(obj, mesh)
     if mesh.uv_maps and not (bake_needed or stored or len(layers) >= MAX_UV_MAPS):
         return AtlasPlan(None, mesh.uv_maps[render], render, why is None, why)
     problems = "it has none"
@@ -373,17 +392,7 @@ def _atlas_plan(obj, mesh, settings, keep, bake_needed):
         except UnusableUVs as err:
             problems = err.problems if name == render else problems
     # a new UV map it must be
-    sharing = [o.name for o in bpy.data.objects if o.data == obj.data and o != obj]
-    if why is None and sharing and not mesh.uv_maps:
-        why = (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and a new UV map would become the "
-               f"render UV map there too, changing how {'it renders' if len(sharing) == 1 else 'they render'}: "
-               f"give {obj.name!r} its own mesh first (Object > Relations > Make Single User > Object & Data), or add "
-               "a UV map to the mesh")
-    elif why is None and sharing and ATLAS_UV_NAME in layers:
-        why = (f"its mesh {obj.data.name!r} is shared with {_listed(sharing)}, and rewriting its UV map "
-               f"{ATLAS_UV_NAME!r} could change how {'it renders' if len(sharing) == 1 else 'they render'}: give "
-               f"{obj.name!r} its own mesh first (Object > Relations > Make Single User > Object & Data)")
-    elif why is None and len(layers) >= MAX_UV_MAPS and (ATLAS_UV_NAME not in layers or bake_needed):
+    if why is None and len(layers) >= MAX_UV_MAPS and (ATLAS_UV_NAME not in layers or bake_needed):
         why = (f"its mesh {obj.data.name!r} already has {len(layers)} UV maps, Blender's limit: remove one it does "
                "not need (Object Data properties > UV Maps) and press Stylize again")
     if why is not None:

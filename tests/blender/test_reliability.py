@@ -1149,10 +1149,12 @@ def test_a_shared_mesh_with_unusable_uvs_gets_a_map_its_twin_does_not_render(add
     assert twin.material_slots[0].material.node_tree.nodes["cp_stylize UV"].uv_map == "cp_stylize_atlas"
 
 
-def test_an_atlas_its_linked_duplicate_renders_through_is_not_rewritten(addon, monkeypatch):
+@pytest.mark.parametrize("colour", ["procedural", "flat"])
+def test_an_atlas_its_linked_duplicate_renders_through_is_not_rewritten(addon, monkeypatch, colour):
     """A mesh without UVs gets the atlas 'cp_stylize_atlas' as its render UV map; after Alt+D the twin shows an
-    image of its own through it, so a run that would rewrite it is refused before the run."""
-    obj = sphere(material=procedural_material())
+    image of its own through it, so a run that would rewrite it is refused before the run: where the colour
+    must be baked (a procedural) and where it need not (a flat colour, for which the core tries the UV map)."""
+    obj = sphere(material=procedural_material() if colour == "procedural" else node_material("Flat"))
     remove_uvs(obj)
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
     mesh = obj.data
@@ -1346,6 +1348,16 @@ def test_a_material_without_a_material_output_is_refused_with_how_to_add_one(add
     assert _refused_before_the_band_is_built(monkeypatch) == (
         f"material {material.name!r} has no Material Output node: add one (Add > Output > Material Output in the "
         "Shader Editor) and connect its Surface to the shader")
+
+
+def test_a_material_whose_only_output_is_for_eevee_is_refused_with_how_to_set_its_target(addon, monkeypatch):
+    material = image_material("Painted", halves("source"))
+    next(n for n in material.node_tree.nodes if n.type == "OUTPUT_MATERIAL").target = "EEVEE"
+    sphere(material=material)
+    assert _refused_before_the_band_is_built(monkeypatch) == (
+        f"material {material.name!r} has a Material Output node for EEVEE only, and the result is read as Cycles "
+        "renders it: set the node's Target to All (the node's sidebar, Node tab > Properties), or add an output "
+        "for Cycles")
 
 
 def test_edit_mode_is_refused_by_the_poll_with_a_reason(addon):
