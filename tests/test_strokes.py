@@ -214,4 +214,4 @@ def test_a_dabs_paint_thins_to_nothing_at_its_edge(sphere):
     on = (out[:, 0] > 0.5) & (along < 0.1)                          # painted, in the dab's middle
     assert height[on & (across < 0.05)].min() > 0.5 * height.max()   # its body stands
     sides = on & (across > 0.17)
-    assert sides.sum() > 5 and height[sides].max() < 0.1 * height.max()   # its sides meet the ground without a step
+    assert sides.sum() > 5 and height[sides].max() < 0.15 * height.max()  # its sides meet the ground without a step

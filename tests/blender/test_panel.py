@@ -117,7 +117,9 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
 
     monkeypatch.setattr(operators, "user_preset_dir", lambda create=False: str(tmp_path))
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
-    assert registered.mode == "gaussian" and len(registered.palette) == 10
+    from cp_stylize.presets import load_preset
+
+    assert registered.mode == "gaussian" and len(registered.palette) == len(load_preset("starry_night").palette) == 11
     assert (registered.noise_mapping, registered.detail) == ("tone", 0.0)
     assert (registered.strokes, registered.stroke_length, registered.stroke_layers) == (1.0, pytest.approx(0.12), 3)
     assert (registered.swirl, registered.relief, registered.contours) == pytest.approx((0.6, 0.6, 0.6))
