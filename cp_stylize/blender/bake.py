@@ -109,8 +109,8 @@ def check_bakeable(obj):
     """Raise StylizeError if Cycles cannot bake ``obj`` now, saying what to change."""
     scene = bpy.context.scene
     if "cycles" not in bpy.context.preferences.addons or not hasattr(scene, "cycles"):
-        raise StylizeError("procedural colours are baked with Cycles, which is disabled: enable it in "
-                           "Preferences > Add-ons")
+        raise StylizeError(f"the colours of {obj.name!r} come from procedural nodes, which are baked with Cycles, "
+                           "and Cycles is disabled: enable it in Preferences > Add-ons")
     layer = bpy.context.view_layer
     so = "so that its procedural colours can be baked"
     if obj.name not in layer.objects:

@@ -259,7 +259,7 @@ def test_a_procedural_colour_is_refused_while_cycles_is_disabled(addon, monkeypa
     (its settings live on in the scene meanwhile)."""
     from cp_stylize import band
 
-    sphere(material=procedural_material())
+    obj = sphere(material=procedural_material())
     monkeypatch.setattr(band.Band, "build", lambda *a, **k: pytest.fail("the band was built"))
     before = snapshot()
     assert bpy.ops.preferences.addon_disable(module="cycles") == {"FINISHED"}
@@ -268,8 +268,8 @@ def test_a_procedural_colour_is_refused_while_cycles_is_disabled(addon, monkeypa
         message = run_error()
     finally:
         bpy.ops.preferences.addon_enable(module="cycles")
-    assert message == ("procedural colours are baked with Cycles, which is disabled: enable it in Preferences > "
-                       "Add-ons")
+    assert message == (f"the colours of {obj.name!r} come from procedural nodes, which are baked with Cycles, and "
+                       "Cycles is disabled: enable it in Preferences > Add-ons")
     assert_unchanged(before, snapshot())
 
 
@@ -1314,8 +1314,8 @@ def test_an_image_sequence_is_refused_with_how_to_read_one_frame(addon, tmp_path
     image.source = "SEQUENCE"
     sphere(material=image_material("Painted", image))
     assert _refused_before_the_band_is_built(monkeypatch) == (
-        f"image {image.name!r} is an image sequence, which cp_stylize cannot read: use a still image (Image Editor > "
-        "Image > Source: Single Image, or open one frame as an image)")
+        f"image {image.name!r} is an image sequence, which cp_stylize cannot read: use a still image (in the Image "
+        "Editor's sidebar, Image tab: Source Single Image; or open one frame as an image)")
 
 
 @pytest.mark.parametrize("case", ["missing file", "tiled image"])
