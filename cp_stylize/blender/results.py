@@ -71,6 +71,13 @@ def edited(image):
     return pixel_digest(image) != recorded
 
 
+def _in_use(image):
+    """Whether the user keeps ``image`` (a fake user) or anything in the file still uses it: what refers to
+    it, not its user count, which Blender 4.2 leaves one too high after a material copy's image node is
+    pointed elsewhere."""
+    return image.use_fake_user or (bool(image.users) and bool(bpy.data.user_map(subset={image}).get(image)))
+
+
 class Replaced:
     """The images the nodes a run rewires showed before it, each once."""
 
@@ -93,7 +100,7 @@ class Replaced:
         new = {image.as_pointer() for image in new_images}
         unused, kept = [], []
         for pointer, image in self._images.items():
-            if pointer in new or not made_by_a_run(image) or image.users > 0:
+            if pointer in new or not made_by_a_run(image) or _in_use(image):
                 continue
             changed = edited(image)
             if changed is False:
