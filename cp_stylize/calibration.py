@@ -5,8 +5,8 @@ quiet two-core machine.  :func:`measure` times a short job of the same kinds of
 work (sparse products on arrays larger than a processor's cache, as the
 extension and the diffusion steps make, sorting and gathers, as the closest
 point search and the bake-out make) in processor time, the least of several
-runs, so that other work on the computer counts as little as it can, and :func:`machine_speed` divides it by that
-machine's time: the factor the estimate's times are multiplied by.  It says
+runs, so that other work on the computer counts as little as it can, and
+:func:`machine_speed` divides it by that machine's time: the factor the estimate's times are multiplied by.  It says
 how fast the computer is, not how busy: a run on a computer busy with other
 work takes longer than its estimate.  It is measured once a session and kept,
 in memory and, given a path, in a small JSON file that keeps the least of all

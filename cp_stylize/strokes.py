@@ -88,10 +88,10 @@ class Brush:
     far a dab's colour moves towards a neighbouring palette colour;
     ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
     no structure and is light (:data:`SWIRL_LIGHT`: as in the painting's sky;
-    a dark, flat part keeps calm strokes); ``strength`` in [0, 1]: the dabs' opacity; ``seed``: the
-    same seed places the same dabs; ``fidelity`` in [0, 1]: how much of the
-    picture's own colours the run keeps (the palette's pull on the jitter
-    falls with it).
+    a dark, flat part keeps calm strokes); ``strength`` in [0, 1]: the dabs'
+    opacity; ``seed``: the same seed places the same dabs; ``fidelity`` in
+    [0, 1]: how much of the picture's own colours the run keeps (the
+    palette's pull on the jitter falls with it).
     """
 
     width: float
@@ -220,9 +220,10 @@ class StrokeField:
     def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None):
         """Unit directions (M, 3) at surface points (M, 3) with normals (M, 3): the structure's, blended
         by doubled angles with a given ``field`` (N, 3) of the band, whose length is the confidence in
-        it (a field trusted at :data:`FALLBACK_TRUST` or less yields where the structure is sure), and, by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure
-        over a wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes
-        ring his stars) and, where that is weak too, with ``swirls``.  ``swirl`` is a number or one
+        it (a field trusted at :data:`FALLBACK_TRUST` or less yields where the structure is sure), and,
+        by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure over a
+        wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes ring
+        his stars) and, where that is weak too, with ``swirls``.  ``swirl`` is a number or one
         for each point (M,)."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
@@ -232,8 +233,9 @@ class StrokeField:
                                        normals[none])
         confidence = self.confidence[nearest].astype(np.float64)
         if field is not None:
-            given = _tangent(np.asarray(field[nearest], dtype=np.float64), normals)
-            trust = np.clip(np.linalg.norm(np.asarray(field[nearest], dtype=np.float64), axis=1), 0.0, 1.0)
+            raw = np.asarray(field[nearest], dtype=np.float64)
+            given = _tangent(raw, normals)
+            trust = np.clip(np.linalg.norm(raw, axis=1), 0.0, 1.0)
             trust[np.linalg.norm(given, axis=1) < 0.5] = 0.0          # no direction there (a flat part)
             given[trust == 0] = direction[trust == 0]
             # a fallback (trusted at FALLBACK_TRUST or less) yields to the picture's structure as far as
@@ -691,7 +693,8 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     ridge = 0.1 * np.exp(-(((along - 0.7) / 0.25) ** 2)) + 0.1 * across**4
     # the paint thins to nothing at the dab's sides and head: it neither stands as a step above the
     # paint around it nor scrapes a groove into it
-    side = _smooth((1.0 - np.abs(across)) / EDGE) * _smooth((along + 1.0) / EDGE) * _smooth((1.0 - along) / (0.5 * EDGE))
+    side = (_smooth((1.0 - np.abs(across)) / EDGE) * _smooth((along + 1.0) / EDGE)
+            * _smooth((1.0 - along) / (0.5 * EDGE)))
     profile = thickness * side * (0.75 + ridge + GROOVE_DEPTH * groove)
     shade = 1.0 + 0.03 * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first

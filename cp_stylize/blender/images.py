@@ -49,7 +49,8 @@ def check_readable(image):
         kind = {"SEQUENCE": "an image sequence", "MOVIE": "a movie", "VIEWER": "a viewer image"}.get(
             image.source, f"an image of source {image.source.lower()}")
         raise StylizeError(f"image {image.name!r} is {kind}, which cp_stylize cannot read: use a still image "
-                           "(in the Image Editor's sidebar, Image tab: Source Single Image; or open one frame as an image)")
+                           "(in the Image Editor's sidebar, Image tab: Source Single Image; or open one frame as "
+                           "an image)")
     path = None
     if image.source == "FILE" and image.packed_file is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
