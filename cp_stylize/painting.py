@@ -14,10 +14,15 @@ import numpy as np
 
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width
-from .oklab import to_oklab
+from .oklab import from_oklab, to_oklab
 from .strokes import Brush, StrokeField, Texels, paint, place_dabs
 
-__all__ = ["Painting", "painting"]
+__all__ = ["Painting", "painting", "GRAIN_REACH"]
+
+#: The picture's lightness detail under the paint (:class:`Painting`'s ``detail``) is kept within this
+#: OKLab lightness of the paint's own: windows, lettering and fence posts read through a dab without
+#: its edge turning into texel-sized speckle.
+GRAIN_REACH = 0.12
 
 
 class Painting:
@@ -32,11 +37,17 @@ class Painting:
     palette's do), and each stroke takes the colour under it from
     ``recolour(colours)`` of those colours (the palette mapping) rather than
     the band's, jittered by ``jitter = (pull, shade, palette in OKLab)``.
+    ``detail`` in [0, 1]: how much of that picture's lightness detail,
+    finer than the band, shows in the paint (as a brush that picks up the
+    wet paint under it): the difference between the recoloured picture's
+    OKLab lightness and the band's colours', kept within
+    :data:`GRAIN_REACH`, is added to the painted lightness.
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
-                 recolour=None, jitter=None):
+                 recolour=None, jitter=None, detail=0.0):
         self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
+        self.detail = float(detail)
         self.contours = float(contours)
         self.ink = None if ink is None else np.asarray(ink, dtype=np.float64)
         self.columns = None if lines is None or self.contours <= 0 else np.asarray(lines, dtype=np.float32)
@@ -61,6 +72,8 @@ class Painting:
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
+            if self.detail > 0 and source is not None:
+                out = _with_grain(out, under, colours[:, :3], self.detail)
         if self.columns is not None:
             ink = self.contours * line_strength(columns[:, 0])[:, None]
             target = 0.25 * out if self.ink is None else self.ink
@@ -70,8 +83,17 @@ class Painting:
         return painted, height
 
 
+def _with_grain(painted, picture, smooth, strength):
+    """``painted`` (M, 3) with ``strength`` times the lightness detail of ``picture`` over ``smooth``
+    (all sRGB, M, 3), that detail kept within :data:`GRAIN_REACH` (OKLab)."""
+    lab = to_oklab(painted)
+    fine = to_oklab(picture)[:, 0] - to_oklab(np.asarray(smooth, dtype=np.float64))[:, 0]
+    lab[:, 0] += strength * np.clip(fine, -GRAIN_REACH, GRAIN_REACH)
+    return from_oklab(lab)
+
+
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
-             weights=None, field=None, source=None, recolour=None):
+             weights=None, field=None, source=None, recolour=None, detail=0.0):
     """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
 
     Parameters
@@ -98,6 +120,9 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     recolour : callable, optional
         ``recolour(colours)``: the mapping that made ``values`` from the picture's colours (the
         palette's), for the colours strokes pick up at the texture's resolution.
+    detail : float in [0, 1]
+        How much of the picture's lightness detail, finer than the band, shows in the strokes (with
+        ``source``; see :class:`Painting`).
     """
     values = np.asarray(values).reshape(band.size, -1)[:, :3]
     structure = values if structure is None else np.asarray(structure).reshape(band.size, -1)[:, :3]
@@ -116,4 +141,5 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         finest = brush.widths(texel)[-1] if brush is not None else 4 * texel
         lines = contour_field(band, structure, line_width(finest, band.h), fields[-1].direction)
     return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
-                    contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter)
+                    contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter,
+                    detail=detail if dabs is not None else 0.0)

@@ -50,6 +50,11 @@ TURN_GREY = 0.25
 #: The lightness of the result: this share from the palette's lightness at the colour's tone rank
 #: (a smooth ramp that keeps the picture's tonal detail), the rest from the chosen colours.
 TONE_KEEP = 0.85
+#: That ramp is this share an even one, from the palette's darkest lightness to its lightest, and the
+#: rest the palette's own lightness at the rank: a palette with many dark colours (a night's blues)
+#: would otherwise put half the picture's tones within a few steps of lightness, and a street and the
+#: buildings on it would merge into one dark mass.
+TONE_SPREAD = 0.4
 #: How sharply the palette colours that fit best win, for the lightness and for the hue and chroma (the
 #: fit's exponent per unit of squared distance).
 SOFT = 4.0
@@ -168,7 +173,9 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
         fit = np.exp(-sharpness * best) * weights[None, :]
         fit /= fit.sum(axis=1, keepdims=True)
         mix[:, channels] = fit @ lab_palette[:, channels]
-    ramp = np.interp(ranks, centres, lab_palette[:, 0])          # the palette's lightness at the rank
+    darkest, lightest = lab_palette[0, 0], lab_palette[-1, 0]
+    ramp = ((1.0 - TONE_SPREAD) * np.interp(ranks, centres, lab_palette[:, 0])     # the palette's lightness at the
+            + TONE_SPREAD * (darkest + (lightest - darkest) * ranks))             # rank, spread evenly in part
     lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp
     # fidelity: the picture's hue first (full at 0.5), then its lightness and chroma
     turn = (min(1.0, 2.0 * fidelity) * np.clip(chroma / (TURN_GREY * GREY), 0.0, 1.0))[:, None]

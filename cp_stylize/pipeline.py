@@ -364,7 +364,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                      progress=lambda f: report(0.15 + 0.7 * f))
     lap("diffusion")
     detail = None
-    if settings.detail > 0:
+    if settings.detail > 0 and settings.strokes <= 0:     # with strokes, the painting keeps the detail
         # what the filter starts from: the sampled colours extended once, as every step extends
         detail = Detail(cache.get("extended", painted, lambda: read_only(band.extend(sampled))),
                         lambda face, bary: cache.get("texel_colours", (painted, layout),
@@ -383,6 +383,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                 return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity)
         paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                          palette=settings.palette or None, weights=weights, field=field, recolour=recolour,
+                         detail=settings.detail,
                          source=lambda face, bary: colours_at(face, bary, colours))
         report(0.9)
         lap("painting")

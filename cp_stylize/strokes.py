@@ -73,8 +73,10 @@ FLATTEN = 0.35
 EDGE = 0.4
 #: How deep the bristle marks in a dab are, as a share of its thickness.
 GROOVE_DEPTH = 0.12
-#: Bristle grooves are at least this many texels apart.
+#: Bristle grooves are at least this many texels apart, and a dab has at most about this many of them
+#: (a broad brush leaves a few strong marks, not a comb's fine lines).
 GROOVE_TEXELS = 3.0
+GROOVES = 5.0
 #: Dabs drawn at once (a block of pairs of texels and dabs).
 _CHUNK = 3000
 
@@ -241,7 +243,7 @@ class StrokeField:
             # a fallback (trusted at FALLBACK_TRUST or less) yields to the picture's structure as far as
             # that is sure; a field trusted fully does not
             fallback = np.clip((1.0 - trust) / (1.0 - FALLBACK_TRUST), 0.0, 1.0)
-            trust = np.where(trust > 0, 1.0 - fallback * confidence, 0.0)
+            trust = np.where(trust > 0, 1.0 - fallback * np.sqrt(confidence), 0.0)
             direction = _blend(given, direction, trust, normals)
         swirl = np.broadcast_to(np.asarray(swirl, dtype=np.float64), (len(points),))
         if swirl.any() and (broad is not None or swirls is not None):
@@ -684,7 +686,7 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     phase = dabs.phase[i]
     # bristle marks along the stroke, irregular: two waves across it, their number a dab's own, fading
     # towards the tail where the brush runs dry
-    grooves = np.maximum(2.0, width / (GROOVE_TEXELS * texels.lengths[j]) * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
+    grooves = np.clip(width / (GROOVE_TEXELS * texels.lengths[j]), 2.0, GROOVES * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
     wave = 0.5 * np.pi * grooves * (across + 1.0)
     groove = (0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)) * (1.0 - 0.3 * (along + 1.0))
     # raised paint: each dab its own thickness, a ridge where the brush lifted (the tail) and along its

@@ -12,8 +12,10 @@ Blender's city photograph (buildings, a crane, road markings), seen straight
 on; and each subject wearing its photograph (``<subject>_photo.jpg``).  For
 each stylized render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
 render) shows the strokes as they are; one more render of Suzanne under a
-raking light shows the relief.  ``gallery.jpg`` puts them side by side at a
-third of their size, a row a preset.
+raking light shows the relief, and Van Gogh Along the Form is rendered on
+a torus too (``torus_van_gogh_form.jpg``), a form whose curvature has a
+direction for its strokes to follow.  ``gallery.jpg`` puts them side by
+side at a third of their size, a row a preset.
 """
 
 from __future__ import annotations
@@ -37,7 +39,9 @@ PRESETS = ("starry_night", "van_gogh_form", "sunflower_vase")
 SUBJECTS = ("suzanne", "sphere", "city")
 SIZE = 1024
 #: The crop of each render at full size: (row, column) of its top left corner, as shares of the render.
-CROPS = {"suzanne": (0.22, 0.3), "sphere": (0.32, 0.32), "city": (0.05, 0.35)}
+CROPS = {"suzanne": (0.22, 0.3), "sphere": (0.32, 0.32), "city": (0.05, 0.35), "torus": (0.25, 0.12)}
+#: The preset shown on a torus as well, and the torus's photograph.
+FORM_PRESET = "van_gogh_form"
 CROP = 384
 
 
@@ -47,11 +51,17 @@ def build(kind):
         obj, _, _ = demo.build_scene()
         return obj, (SIZE, SIZE)
     scene.reset()
-    photo = "forest" if kind == "sphere" else "city"
+    photo = "city" if kind == "city" else "forest"
     material = scene.new_material("Gallery", images.array_to_image("gallery_photo", scene.photo_texture(photo)))
     if kind == "sphere":
         bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
         obj = bpy.context.active_object
+        bpy.ops.object.shade_smooth()
+        size = (SIZE, SIZE)
+    elif kind == "torus":
+        bpy.ops.mesh.primitive_torus_add(major_segments=96, minor_segments=48, major_radius=1.0, minor_radius=0.4)
+        obj = bpy.context.active_object
+        obj.rotation_euler = (math.radians(55), 0.0, 0.0)
         bpy.ops.object.shade_smooth()
         size = (SIZE, SIZE)
     else:
@@ -134,6 +144,11 @@ def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
             crop(path, kind)
             cells.append(figures.panel(scene.read_image(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
         rows.append(cells)
+    if FORM_PRESET in presets:
+        render("torus", None, os.path.join(out_dir, "torus_photo.jpg"), log=log)
+        path = os.path.join(out_dir, f"torus_{FORM_PRESET}.jpg")
+        render("torus", FORM_PRESET, path, log=log)
+        crop(path, "torus")
     raking = os.path.join(out_dir, "relief_raking.jpg")
     render("suzanne", "sunflower_vase", raking, raking=True, log=log)
     crop(raking, "suzanne")
