@@ -17,12 +17,16 @@ from .contours import contour_field, ink_colour, line_strength, line_width
 from .oklab import from_oklab, to_oklab
 from .strokes import Brush, StrokeField, Texels, paint, place_dabs
 
-__all__ = ["Painting", "painting", "GRAIN_REACH"]
+__all__ = ["Painting", "painting", "GRAIN_REACH", "LINE_EDGE"]
 
 #: The picture's lightness detail under the paint (:class:`Painting`'s ``detail``) is kept within this
 #: OKLab lightness of the paint's own: windows, lettering and fence posts read through a dab without
 #: its edge turning into texel-sized speckle.
 GRAIN_REACH = 0.12
+#: With the picture at hand, a contour line is inked where the picture is darker than the band's smooth
+#: colours, fully at this OKLab lightness below them: the line keeps to the dark side of an edge, as a
+#: painter outlines a form, and is sharp at the edge itself instead of a soft band across it.
+LINE_EDGE = 0.04
 
 
 class Painting:
@@ -58,7 +62,7 @@ class Painting:
         flat, points, faces, barys = texels
         colours = np.asarray(colours)
         out = colours[:, :3].astype(np.float64)
-        height = None
+        height = fine = None
         if self.dabs is not None and len(self.dabs):
             mesh, dabs = self.mesh, self.dabs
             where = Texels(points, mesh.normal(points, faces, barys), mesh.piece[faces],
@@ -72,10 +76,16 @@ class Painting:
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
-            if self.detail > 0 and source is not None:
-                out = _with_grain(out, under, colours[:, :3], self.detail)
+            if source is not None:
+                # the picture's lightness at the texture's resolution over the band's: its detail
+                fine = to_oklab(under)[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
+                if self.detail > 0:
+                    out = _with_grain(out, fine, self.detail)
         if self.columns is not None:
-            ink = self.contours * line_strength(columns[:, 0])[:, None]
+            strength = line_strength(columns[:, 0])
+            if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
+                strength = strength * _box(_smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
+            ink = self.contours * strength[:, None]
             target = 0.25 * out if self.ink is None else self.ink
             out = out + ink * (target - out)
         painted = colours.copy()
@@ -83,13 +93,30 @@ class Painting:
         return painted, height
 
 
-def _with_grain(painted, picture, smooth, strength):
-    """``painted`` (M, 3) with ``strength`` times the lightness detail of ``picture`` over ``smooth``
-    (all sRGB, M, 3), that detail kept within :data:`GRAIN_REACH` (OKLab)."""
+def _with_grain(painted, fine, strength):
+    """``painted`` (M, 3, sRGB) with ``strength`` times the lightness detail ``fine`` (M,, OKLab) kept
+    within :data:`GRAIN_REACH`."""
     lab = to_oklab(painted)
-    fine = to_oklab(picture)[:, 0] - to_oklab(np.asarray(smooth, dtype=np.float64))[:, 0]
     lab[:, 0] += strength * np.clip(fine, -GRAIN_REACH, GRAIN_REACH)
     return from_oklab(lab)
+
+
+def _box(values, flat, size):
+    """``values`` (M,) at the atlas texels ``flat`` (M,) averaged over each texel's 3 x 3 neighbours in
+    the atlas (texels outside ``flat`` count as 0): a line's edge is anti-aliased over a texel.  The
+    margin texels around each chart continue the surface, so a chart's edge reads its neighbours on the
+    surface."""
+    from scipy import ndimage
+
+    image = np.zeros(size * size)
+    image[flat] = values
+    return ndimage.uniform_filter(image.reshape(size, size), 3, mode="constant").ravel()[flat]
+
+
+def _smooth_step(x):
+    """Hermite's smooth step of ``x`` clipped to [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,

@@ -121,7 +121,9 @@ class Dabs:
     """Dabs in painting order: centres, unit normals and directions (n, 3), lengths and widths (n,),
     sRGB colours (n, 3), connected pieces of the mesh (n,), bristle phases (n,), layers (n,), and the
     input face (n,) and barycentric coordinates (n, 3) of each centre, and the draws of each dab's
-    colour jitter (n, 3), which :func:`paint` applies to the colour it picks up under the dab."""
+    colour jitter (n, 3), which :func:`paint` applies to the colour it picks up under the dab, and each
+    dab's bend (n,): the curvature of its centre line on the surface (per unit length; positive turns
+    towards ``normal x direction``), so that a dab arcs with the field it follows."""
 
     centre: np.ndarray
     normal: np.ndarray
@@ -135,6 +137,7 @@ class Dabs:
     face: np.ndarray
     bary: np.ndarray
     draws: np.ndarray = None       # (n, 3) uniform draws of each dab's jitter (see :func:`jitter`), or None
+    bend: np.ndarray = None        # (n,) curvature of each dab's centre line, or None (straight)
 
     def __len__(self):
         return len(self.centre)
@@ -357,9 +360,10 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
     parts = []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
+        links = CHAIN if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
         n = int(4 * COVER * mesh.area / (_AREA * length * width))
         points, faces, bary = _surface_samples(mesh, n, rng)
-        keep = _spread(points, width * np.sqrt(2.5 / COVER), rng)
+        keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
         if layer > 0:
             # finer dabs where the colours change by more than DETAIL across a dab's width
@@ -370,15 +374,81 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         pieces = mesh.piece[faces]
         light = np.clip((structure[lines._nearest(points), 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
         direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad)
+        length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(len(points)) - 1.0))
+        draws, phase = rng.random((len(points), 3)), 2 * np.pi * rng.random(len(points))
+
+        def along(at, normals, which):
+            return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad)
+
+        if links > 1:
+            seed, points, faces, bary, normals, direction = _chained(mesh, band, structure, along, points, faces, bary,
+                                                                     normals, direction, length, links)
+            length, light, draws, phase = length[seed], light[seed], draws[seed], phase[seed]
+            pieces = mesh.piece[faces]
         count = len(points)
-        length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(count) - 1.0))
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
-        draws = rng.random((count, 3))
+        bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
         parts.append(Dabs(points, normals, direction, length, np.full(count, width),
                           jitter(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette),
-                          pieces.astype(np.int64), 2 * np.pi * rng.random(count), np.full(count, layer), faces, bary,
-                          draws))
+                          pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend))
     return Dabs.concatenate(parts)
+
+
+#: The first layer's dabs are laid in strokes of up to this many: from each dab the next goes on along the
+#: field by :data:`CHAIN_STEP` of its length, with the same paint (its jitter and bristles), until the
+#: picture's colour under it changes by more than :data:`CHAIN_COLOUR` (OKLab) from where the stroke
+#: began.  Each dab keeps its own shape; together they read as one long, bending stroke of the brush.
+CHAIN = 3
+CHAIN_STEP = 0.6
+CHAIN_COLOUR = 0.1
+
+
+def _chained(mesh, band, lab, along, points, faces, bary, normals, direction, length, links):
+    """Strokes of up to ``links`` dabs begun at ``points`` (see :data:`CHAIN`): each stroke's seed index
+    (m,) and its dabs' centres (m, 3), input faces (m,), barycentrics (m, 3), normals (m, 3) and
+    directions (m, 3), a stroke's dabs one after another.  ``lab`` (N, 3) are the band's colours a stroke
+    keeps to; ``along(points, normals, seeds)`` gives the field's directions."""
+    start = lab[np.maximum(band.lookup(np.rint(points / band.h).astype(np.int64)), 0)]
+    piece = mesh.piece[faces]
+    found = [(np.arange(len(points)), points, faces, bary, normals, direction)]
+    alive, x, d = found[0][0], points, direction
+    for _ in range(1, links):
+        g = band.lookup(np.rint((x + (CHAIN_STEP * length[alive])[:, None] * d) / band.h).astype(np.int64))
+        ok = g >= 0
+        g = np.maximum(g, 0)
+        ok &= (mesh.piece[band.face[g]] == piece[alive]) & (np.linalg.norm(lab[g] - start[alive], axis=1)
+                                                             < CHAIN_COLOUR)
+        alive, g, d = alive[ok], g[ok], d[ok]
+        if not len(alive):
+            break
+        x, f, b = band.cp[g].astype(np.float64), band.face[g], band.bary[g]
+        n = mesh.normal(x, f, b)
+        ahead = along(x, n, alive)
+        d = ahead * np.where(np.einsum("ij,ij->i", ahead, d) < 0, -1.0, 1.0)[:, None]
+        found.append((alive, x, f, b, n, d))
+    seed, *rest = (np.concatenate(parts) for parts in zip(*found))
+    order = np.argsort(seed, kind="stable")                  # a stroke's dabs together, in the order laid
+    return (seed[order], *(a[order] for a in rest))
+
+
+#: A dab bends by at most this share of its width (the depth of its arc), however fast the field turns.
+BEND_MAX = 0.5
+
+
+def _bends(band, points, normals, direction, length, width, directions):
+    """The curvature (n,) of each dab's centre line: how far the field turns between its two ends (read by
+    ``directions(points)`` at the closest points of the band points nearest to them) over its length,
+    kept to an arc at most :data:`BEND_MAX` of ``width`` deep; 0 where an end leaves the band."""
+    ends, inside = [], np.ones(len(points), dtype=bool)
+    for sign in (-1.0, 1.0):
+        end = points + (sign * 0.5 * length)[:, None] * direction
+        nearest = band.lookup(np.rint(end / band.h).astype(np.int64))
+        inside &= nearest >= 0
+        d = directions(np.where((nearest >= 0)[:, None], band.cp[np.maximum(nearest, 0)], points))
+        ends.append(d * np.where(np.einsum("ij,ij->i", d, direction) < 0, -1.0, 1.0)[:, None])
+    turn = np.arctan2(np.einsum("ij,ij->i", np.cross(ends[0], ends[1]), normals), np.einsum("ij,ij->i", *ends))
+    depth = np.clip(0.125 * turn * length, -BEND_MAX * width, BEND_MAX * width)     # the arc's depth, kept
+    return np.where(inside, depth / (0.125 * length**2), 0.0)
 
 
 #: Where along its length (a share of half the length) a dab reads the colours it takes the mean of.
@@ -551,8 +621,9 @@ def _uv_axes(dabs, texels):
     det = g11 * g22 - g12 * g12
     det = np.where(np.abs(det) > 1e-30, det, np.inf)
     sides = np.cross(dabs.normal, dabs.direction)
+    depth = 0.0 if dabs.bend is None else 0.125 * np.abs(dabs.bend) * dabs.length**2     # a bent dab's arc
     axes = []
-    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width)[:, None]):
+    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width + depth)[:, None]):
         r1, r2 = np.einsum("ij,ij->i", w, e1), np.einsum("ij,ij->i", w, e2)
         x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
         axes.append(x[:, None] * d1 + y[:, None] * d2)
@@ -619,8 +690,9 @@ def _ball_pairs(dabs, texels, which):
     if not len(which):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     margin = 2.0 * float(np.median(texels.lengths))
+    depth = 0.0 if dabs.bend is None else 0.125 * np.abs(dabs.bend[which]) * dabs.length[which] ** 2
     found = texels.tree.query_ball_point(dabs.centre[which], np.maximum(0.5 * dabs.length[which], dabs.width[which])
-                                         + margin, return_sorted=False)
+                                         + depth + margin, return_sorted=False)
     counts = np.fromiter((len(f) for f in found), np.int64, len(found))
     if not counts.sum():
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
@@ -647,6 +719,7 @@ class _Shapes:
         self.normal = dabs.normal.astype(np.float32)
         self.half_length = (0.5 * dabs.length).astype(np.float32)
         self.width = dabs.width.astype(np.float32)
+        self.bend = (np.zeros(len(dabs), np.float32) if dabs.bend is None else dabs.bend.astype(np.float32))
         self.piece = dabs.piece
 
 
@@ -660,6 +733,7 @@ def _geometry(shapes, texels, i, j):
     near = np.abs(a) <= 1.0 + 2.0 * lengths / half_length
     i, j, delta, a, half_length, lengths = i[near], j[near], delta[near], a[near], half_length[near], lengths[near]
     v = np.einsum("ij,ij->i", delta, shapes.side[i])
+    v -= 0.5 * shapes.bend[i] * (a * half_length) ** 2              # across the dab's arc, not its chord
     width = shapes.width[i]
     near = np.abs(v) <= 0.5 * width + lengths
     i, j, delta, a, v, half_length, width, lengths = (x[near] for x in (i, j, delta, a, v, half_length, width, lengths))

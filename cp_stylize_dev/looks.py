@@ -183,8 +183,8 @@ def speckle(result, mask=None, threshold=0.25):
 
 def dab_aspects(dabs, texels, sample=500, seed=0):
     """Length over width (M,) of the drawn footprints of ``sample`` dabs: the extent of the texels each
-    covers by more than half, along and across its direction (on the surface, before any later dab
-    covers it)."""
+    covers by more than half, along its direction and across its arc (on the surface, before any
+    later dab covers it)."""
     from cp_stylize import strokes
 
     rng = np.random.default_rng(seed)
@@ -195,6 +195,8 @@ def dab_aspects(dabs, texels, sample=500, seed=0):
     delta = texels.points[j] - dabs.centre[i]
     along = np.einsum("ij,ij->i", delta, dabs.direction[i])
     across = np.einsum("ij,ij->i", delta, sides[i])
+    if dabs.bend is not None:                                 # a bent dab's width is across its arc
+        across -= 0.5 * dabs.bend[i] * along**2
     aspects = []
     for d in np.unique(i):
         mine = i == d

@@ -7,6 +7,7 @@ from cp_stylize import Band, Sphere
 from cp_stylize.atlas import uv_atlas
 from cp_stylize.baking import atlas_points, texel_lengths
 from cp_stylize.mesh import TriangleMesh, parametric_mesh
+from cp_stylize import strokes
 from cp_stylize.strokes import Brush, Dabs, StrokeField, Swirls, Texels, paint, place_dabs
 
 
@@ -169,7 +170,8 @@ def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphe
     assert np.median(np.abs(np.einsum("ij,ij->i", kept[equator], given[equator]))) > 0.99
 
 
-def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere):
+def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere, monkeypatch):
+    monkeypatch.setattr(strokes, "CHAIN", 1)             # single dabs: the same centres whatever the field
     mesh, band, atlas, texels = sphere
     colours = _stripes(band, [0, 0, 1])                    # stripes round the z axis: strokes run around it
     brush = Brush(width=0.12, length=0.48, layers=1, seed=3)
@@ -185,8 +187,10 @@ def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_n
     assert np.median(np.abs(sure.direction[equator, 2])) > 0.95     # a sure field wins over the stripes
 
 
-def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere):
+def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere, monkeypatch):
     from cp_stylize.oklab import to_oklab
+
+    monkeypatch.setattr(strokes, "CHAIN", 1)             # single dabs: the same centres whatever the field
 
     mesh, band, atlas, texels = sphere
     for grey, calm in ((0.08, True), (0.85, False)):
@@ -215,3 +219,36 @@ def test_a_dabs_paint_thins_to_nothing_at_its_edge(sphere):
     assert height[on & (across < 0.05)].min() > 0.5 * height.max()   # its body stands
     sides = on & (across > 0.17)
     assert sides.sum() > 5 and height[sides].max() < 0.15 * height.max()  # its sides meet the ground without a step
+
+
+def test_the_first_layers_dabs_make_long_strokes_along_the_field_that_stop_at_a_colour_edge(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = _stripes(band, [0, 0, 1])                       # strokes run round the z axis, along the stripes
+    colours[band.cp[:, 0] > 0.3] = [0.1, 0.1, 0.9]            # a flat blue cap: no stroke runs into or out of it
+    dabs = place_dabs(mesh, band, colours, Brush(width=0.06, length=0.24, layers=1, seed=4), texel=0.01)
+    # a stroke's dabs follow one another and share their paint: the same jitter draws and bristles
+    same = np.all(dabs.draws[1:] == dabs.draws[:-1], axis=1) & (dabs.phase[1:] == dabs.phase[:-1])
+    step = np.linalg.norm(dabs.centre[1:] - dabs.centre[:-1], axis=1)
+    assert 0.4 * len(dabs) < same.sum() < len(dabs)
+    # the next dab's centre is the band point nearest to that step on: within a grid spacing of it
+    np.testing.assert_allclose(step[same], strokes.CHAIN_STEP * dabs.length[:-1][same], rtol=0, atol=band.h)
+    turn = np.abs(np.einsum("ij,ij->i", dabs.direction[1:], dabs.direction[:-1]))[same]
+    assert np.median(turn) > 0.95                             # each dab goes on along the last one's direction
+    cap = dabs.centre[:, 0] > 0.3
+    assert not np.any(same & (cap[1:] != cap[:-1]))           # no stroke crosses the cap's edge
+
+
+def test_a_dab_bends_with_a_field_that_turns_and_is_straight_where_it_does_not(sphere):
+    mesh, band, atlas, texels = sphere
+    x = band.cp
+    straight = np.column_stack([-x[:, 1], x[:, 0], 0 * x[:, 0]])       # the parallels: round the z axis
+    field = straight / np.maximum(np.linalg.norm(straight, axis=1, keepdims=True), 1e-12)
+    flat = np.full((band.size, 3), 0.5, np.float32)
+    dabs = place_dabs(mesh, band, flat, Brush(width=0.06, length=0.3, layers=1, seed=2), texel=0.01, field=field)
+    # a parallel at latitude phi turns towards the pole at tan(phi) per unit length (its geodesic curvature)
+    z = dabs.centre[:, 2]
+    side = np.cross(dabs.normal, dabs.direction)
+    expected = np.sign(side[:, 2]) * z / np.sqrt(1 - z**2)
+    low = np.abs(z) < 0.5
+    np.testing.assert_allclose(dabs.bend[low], expected[low], atol=0.35)
+    assert np.median(np.abs(dabs.bend[np.abs(z) < 0.1])) < 0.2
