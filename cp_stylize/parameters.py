@@ -77,8 +77,10 @@ RUN = {p.name: p for p in (
                                   "lightness shows in the paint (windows, lettering)", 0.0, 1.0, 1.0),
     Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
                                     "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0),
-    Parameter("stroke_length", "Stroke Length", "Length of the largest brush strokes (object normalised to a "
-                                                "diameter of 2)", 0.01, 1.0, 0.1, "length", precision=3, step=1),
+    Parameter("stroke_length", "Stroke Length", "Length of the largest dabs of paint (object normalised to a "
+                                                "diameter of 2); the first layer lays up to three end to end "
+                                                "along the picture, as one long stroke", 0.01, 1.0, 0.1, "length",
+              precision=3, step=1),
     Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a diameter "
                                               "of 2); strokes narrower than three texels are not drawn",
               0.003, 0.2, 0.03, "length", precision=4, step=0.1),
