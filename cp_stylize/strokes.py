@@ -374,6 +374,10 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         pieces = mesh.piece[faces]
         light = np.clip((structure[lines._nearest(points), 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
         direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad)
+        # where the picture has little structure, each dab turns a little its own way: a flat patch gets a
+        # painter's varied strokes, not rings of parallel ones
+        turn = WANDER * (1.0 - lines.confidence[lines._nearest(points)]) * (2.0 * rng.random(len(points)) - 1.0)
+        direction = np.cos(turn)[:, None] * direction + np.sin(turn)[:, None] * np.cross(normals, direction)
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(len(points)) - 1.0))
         draws, phase = rng.random((len(points), 3)), 2 * np.pi * rng.random(len(points))
 
@@ -394,6 +398,8 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     return Dabs.concatenate(parts)
 
 
+#: Where the picture has no structure, a dab turns by up to this angle (radians) from the field, at random.
+WANDER = 0.35
 #: The first layer's dabs are laid in strokes of up to this many: from each dab the next goes on along the
 #: field by :data:`CHAIN_STEP` of its length, with the same paint (its jitter and bristles), until the
 #: picture's colour under it changes by more than :data:`CHAIN_COLOUR` (OKLab) from where the stroke
