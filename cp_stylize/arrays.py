@@ -1,10 +1,10 @@
-"""Small array helpers shared by the core: checked inputs, unit rows, runs and chunks."""
+"""Small array helpers shared by the core: checked inputs, unit rows, runs, chunks and a smooth step."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_points", "check_uvs", "count", "unit_rows", "expand_runs", "split_counts"]
+__all__ = ["as_points", "check_uvs", "count", "unit_rows", "expand_runs", "split_counts", "smooth_step"]
 
 
 def as_points(x, name="points"):
@@ -66,3 +66,9 @@ def split_counts(counts, budget):
     total = np.cumsum(counts)
     cuts = np.searchsorted(total, np.arange(budget, total[-1] if len(total) else 0, budget), side="right")
     return np.unique(np.concatenate([[0], cuts, [len(counts)]]))
+
+
+def smooth_step(x):
+    """Hermite's smooth step ``3 x^2 - 2 x^3`` of ``x`` clipped to [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width
 from .oklab import from_oklab, to_oklab
@@ -84,7 +85,7 @@ class Painting:
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
-                strength = strength * _box(_smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
+                strength = strength * _box(smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
             ink = self.contours * strength[:, None]
             target = 0.25 * out if self.ink is None else self.ink
             out = out + ink * (target - out)
@@ -111,12 +112,6 @@ def _box(values, flat, size):
     image = np.zeros(size * size)
     image[flat] = values
     return ndimage.uniform_filter(image.reshape(size, size), 3, mode="constant").ravel()[flat]
-
-
-def _smooth_step(x):
-    """Hermite's smooth step of ``x`` clipped to [0, 1]."""
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,

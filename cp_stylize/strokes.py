@@ -39,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .oklab import from_oklab, to_oklab
-from .arrays import expand_runs
+from .arrays import expand_runs, smooth_step
 from .palette import check_palette, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
@@ -775,8 +775,8 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     ridge = 0.1 * np.exp(-(((along - 0.7) / 0.25) ** 2)) + 0.1 * across**4
     # the paint thins to nothing at the dab's sides and head: it neither stands as a step above the
     # paint around it nor scrapes a groove into it
-    side = (_smooth((1.0 - np.abs(across)) / EDGE) * _smooth((along + 1.0) / EDGE)
-            * _smooth((1.0 - along) / (0.5 * EDGE)))
+    side = (smooth_step((1.0 - np.abs(across)) / EDGE) * smooth_step((along + 1.0) / EDGE)
+            * smooth_step((1.0 - along) / (0.5 * EDGE)))
     profile = thickness * side * (0.75 + ridge + GROOVE_DEPTH * groove)
     shade = 1.0 + 0.03 * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
@@ -789,12 +789,6 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     height_through, height_shown = _over(FLATTEN * alpha * side[order], heads)
     height_added = np.add.reduceat(alpha * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added
-
-
-def _smooth(x):
-    """Hermite's smooth step of ``x`` clipped to [0, 1]."""
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def _over(alpha, heads):
