@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_points", "check_uvs", "count", "unit_rows", "expand_runs", "split_counts", "smooth_step"]
+__all__ = ["as_points", "check_uvs", "count", "unit_rows", "aligned", "expand_runs", "split_counts", "smooth_step"]
 
 
 def as_points(x, name="points"):
@@ -52,6 +52,12 @@ def unit_rows(v, fallback=None):
     if fallback is not None and np.any(zero):
         unit[zero] = fallback
     return unit, length
+
+
+def aligned(v, reference):
+    """Rows of ``v`` (M, 3), each turned round where it points against the same row of ``reference``: the
+    sign a line field's direction takes to go on along ``reference``."""
+    return v * np.where(np.einsum("ij,ij->i", v, reference) < 0, -1.0, 1.0)[:, None]
 
 
 def expand_runs(counts):

@@ -284,6 +284,10 @@ class Band:
         flat = self._flat(np.where(inside[..., None], rel, 0))
         return np.where(inside, self._index.ravel()[flat], -1)
 
+    def nearest(self, points):
+        """Band indices (...,) of the grid nodes nearest to ``points`` (..., 3); -1 where not in the band."""
+        return self.lookup(np.rint(np.asarray(points) / self.h).astype(np.int64))
+
     def neighbors(self, offsets):
         """Band indices of the grid points at ``offsets`` (K, 3) from each band point: (N, K), -1 if absent."""
         offsets = np.asarray(offsets, dtype=np.int64).reshape(-1, 3)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import aligned
 from .oklab import from_oklab, to_oklab
 from .smoothing import GaussianSmoother, taper
 from .sparse import SplitMatrix
@@ -83,13 +84,13 @@ def _along(band, field, directions, step):
         heading = sign * np.asarray(directions[read], dtype=np.float64)
         for _ in range(FLOW_STEPS):
             x += step * heading
-            g = band.lookup(np.rint(x / band.h).astype(np.int64))
+            g = band.nearest(x)
             inside = g >= 0
             g = np.where(inside, g, 0)
             total += np.where(inside, field[g], 0.0)
             count += inside
             ahead = np.asarray(directions[g], dtype=np.float64)
-            heading = ahead * np.where(np.einsum("ij,ij->i", ahead, heading) < 0, -1.0, 1.0)[:, None]
+            heading = aligned(ahead, heading)
             x -= np.einsum("ij,ij->i", x - band.cp[g], normals[g])[:, None] * normals[g]
     out = field.astype(np.float64, copy=True)
     out[read] = total / count

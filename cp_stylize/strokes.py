@@ -39,7 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .oklab import from_oklab, to_oklab
-from .arrays import expand_runs, smooth_step
+from .arrays import aligned, expand_runs, smooth_step
 from .palette import check_palette, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
@@ -151,6 +151,11 @@ class Dabs:
         return cls(*[joined(f.name) for f in dataclasses.fields(cls)])
 
     @property
+    def depth(self):
+        """How deep each dab's arc is (n,): 0 for a straight dab."""
+        return np.zeros(len(self)) if self.bend is None else 0.125 * np.abs(self.bend) * self.length**2
+
+    @property
     def aspect(self):
         """Each dab's length over its width (n,)."""
         return self.length / self.width
@@ -189,7 +194,7 @@ class StrokeField:
         self.band, self.direction, self.confidence, self.strength = band, direction, confidence, strength
 
     def _nearest(self, points):
-        return np.maximum(self.band.lookup(np.rint(points / self.band.h).astype(np.int64)), 0)
+        return np.maximum(self.band.nearest(points), 0)
 
     def strength_at(self, points):
         """The structure's strength (M,) at surface points (M, 3): the root of the tensor's larger
@@ -372,11 +377,12 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
             points, faces, bary = points[chosen], faces[chosen], bary[chosen]
         normals = mesh.normal(points, faces, bary)
         pieces = mesh.piece[faces]
-        light = np.clip((structure[lines._nearest(points), 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
+        near = lines._nearest(points)
+        light = np.clip((structure[near, 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
         direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad)
         # where the picture has little structure, each dab turns a little its own way: a flat patch gets a
         # painter's varied strokes, not rings of parallel ones
-        turn = WANDER * (1.0 - lines.confidence[lines._nearest(points)]) * (2.0 * rng.random(len(points)) - 1.0)
+        turn = WANDER * (1.0 - lines.confidence[near]) * (2.0 * rng.random(len(points)) - 1.0)
         direction = np.cos(turn)[:, None] * direction + np.sin(turn)[:, None] * np.cross(normals, direction)
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(len(points)) - 1.0))
         draws, phase = rng.random((len(points), 3)), 2 * np.pi * rng.random(len(points))
@@ -385,8 +391,9 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
             return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad)
 
         if links > 1:
-            seed, points, faces, bary, normals, direction = _chained(mesh, band, structure, along, points, faces, bary,
-                                                                     normals, direction, length, links)
+            seed, points, faces, bary, normals, direction = _chained(mesh, band, structure, structure[near], along,
+                                                                     points, faces, bary, normals, direction, length,
+                                                                     links)
             length, light, draws, phase = length[seed], light[seed], draws[seed], phase[seed]
             pieces = mesh.piece[faces]
         count = len(points)
@@ -409,17 +416,17 @@ CHAIN_STEP = 0.6
 CHAIN_COLOUR = 0.1
 
 
-def _chained(mesh, band, lab, along, points, faces, bary, normals, direction, length, links):
+def _chained(mesh, band, lab, start, along, points, faces, bary, normals, direction, length, links):
     """Strokes of up to ``links`` dabs begun at ``points`` (see :data:`CHAIN`): each stroke's seed index
     (m,) and its dabs' centres (m, 3), input faces (m,), barycentrics (m, 3), normals (m, 3) and
     directions (m, 3), a stroke's dabs one after another.  ``lab`` (N, 3) are the band's colours a stroke
-    keeps to; ``along(points, normals, seeds)`` gives the field's directions."""
-    start = lab[np.maximum(band.lookup(np.rint(points / band.h).astype(np.int64)), 0)]
+    keeps to, ``start`` (n, 3) theirs where each stroke begins; ``along(points, normals, seeds)`` gives
+    the field's directions."""
     piece = mesh.piece[faces]
     found = [(np.arange(len(points)), points, faces, bary, normals, direction)]
     alive, x, d = found[0][0], points, direction
     for _ in range(1, links):
-        g = band.lookup(np.rint((x + (CHAIN_STEP * length[alive])[:, None] * d) / band.h).astype(np.int64))
+        g = band.nearest(x + (CHAIN_STEP * length[alive])[:, None] * d)
         ok = g >= 0
         g = np.maximum(g, 0)
         ok &= (mesh.piece[band.face[g]] == piece[alive]) & (np.linalg.norm(lab[g] - start[alive], axis=1)
@@ -429,8 +436,7 @@ def _chained(mesh, band, lab, along, points, faces, bary, normals, direction, le
             break
         x, f, b = band.cp[g].astype(np.float64), band.face[g], band.bary[g]
         n = mesh.normal(x, f, b)
-        ahead = along(x, n, alive)
-        d = ahead * np.where(np.einsum("ij,ij->i", ahead, d) < 0, -1.0, 1.0)[:, None]
+        d = aligned(along(x, n, alive), d)
         found.append((alive, x, f, b, n, d))
     seed, *rest = (np.concatenate(parts) for parts in zip(*found))
     order = np.argsort(seed, kind="stable")                  # a stroke's dabs together, in the order laid
@@ -448,10 +454,9 @@ def _bends(band, points, normals, direction, length, width, directions):
     ends, inside = [], np.ones(len(points), dtype=bool)
     for sign in (-1.0, 1.0):
         end = points + (sign * 0.5 * length)[:, None] * direction
-        nearest = band.lookup(np.rint(end / band.h).astype(np.int64))
-        inside &= nearest >= 0
-        d = directions(np.where((nearest >= 0)[:, None], band.cp[np.maximum(nearest, 0)], points))
-        ends.append(d * np.where(np.einsum("ij,ij->i", d, direction) < 0, -1.0, 1.0)[:, None])
+        onto, found = _onto(band, end, points)
+        inside &= found
+        ends.append(aligned(directions(onto), direction))
     turn = np.arctan2(np.einsum("ij,ij->i", np.cross(ends[0], ends[1]), normals), np.einsum("ij,ij->i", *ends))
     depth = np.clip(0.125 * turn * length, -BEND_MAX * width, BEND_MAX * width)     # the arc's depth, kept
     return np.where(inside, depth / (0.125 * length**2), 0.0)
@@ -461,6 +466,14 @@ def _bends(band, points, normals, direction, length, width, directions):
 PICKUP = np.linspace(-0.7, 0.7, 5)
 
 
+def _onto(band, x, fallback):
+    """Points ``x`` (M, 3) moved onto the surface: the closest points of their nearest band points, and
+    ``fallback`` (M, 3) where they have left the band; and whether each was in it (M,)."""
+    nearest = band.nearest(x)
+    inside = nearest >= 0
+    return np.where(inside[:, None], band.cp[np.maximum(nearest, 0)], fallback), inside
+
+
 def _picked_up(band, values, points, normals, pieces, direction, length):
     """The colour a dab takes (n, 3): the mean of the band's colours at :data:`PICKUP` points along it,
     each moved onto the surface (the closest point of its nearest band point; the centre where it
@@ -468,9 +481,7 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
     k = len(PICKUP)
     along = points[:, None, :] + (PICKUP[None, :, None] * 0.5 * length[:, None, None]) * direction[:, None, :]
     along = along.reshape(-1, 3)
-    nearest = band.lookup(np.rint(along / band.h).astype(np.int64))
-    centre = np.repeat(points, k, axis=0)
-    onto = np.where((nearest >= 0)[:, None], band.cp[np.maximum(nearest, 0)], centre)
+    onto, _ = _onto(band, along, np.repeat(points, k, axis=0))
     read = band.interpolate(values, onto, np.repeat(normals, k, axis=0), np.repeat(pieces, k))
     return read.reshape(len(points), k, -1).mean(axis=1)
 
@@ -627,9 +638,8 @@ def _uv_axes(dabs, texels):
     det = g11 * g22 - g12 * g12
     det = np.where(np.abs(det) > 1e-30, det, np.inf)
     sides = np.cross(dabs.normal, dabs.direction)
-    depth = 0.0 if dabs.bend is None else 0.125 * np.abs(dabs.bend) * dabs.length**2     # a bent dab's arc
     axes = []
-    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width + depth)[:, None]):
+    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width + dabs.depth)[:, None]):
         r1, r2 = np.einsum("ij,ij->i", w, e1), np.einsum("ij,ij->i", w, e2)
         x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
         axes.append(x[:, None] * d1 + y[:, None] * d2)
@@ -696,9 +706,8 @@ def _ball_pairs(dabs, texels, which):
     if not len(which):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     margin = 2.0 * float(np.median(texels.lengths))
-    depth = 0.0 if dabs.bend is None else 0.125 * np.abs(dabs.bend[which]) * dabs.length[which] ** 2
     found = texels.tree.query_ball_point(dabs.centre[which], np.maximum(0.5 * dabs.length[which], dabs.width[which])
-                                         + depth + margin, return_sorted=False)
+                                         + dabs.depth[which] + margin, return_sorted=False)
     counts = np.fromiter((len(f) for f in found), np.int64, len(found))
     if not counts.sum():
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
