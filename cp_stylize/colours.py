@@ -88,9 +88,12 @@ class ColourHull:
             raise ValueError("colours hold no finite colour")
         points = _distinct(np.clip(np.round(colours * _LEVELS), 0, _LEVELS).astype(np.int64)) / _LEVELS
         self.origin = points.mean(axis=0)
-        _, s, vt = np.linalg.svd(points - self.origin, full_matrices=False)
-        # directions in which the colours spread no more than their rounding do not count
-        rank = int(np.sum(s > 2 * TOLERANCE * np.sqrt(len(points))))
+        _, _, vt = np.linalg.svd(points - self.origin, full_matrices=False)
+        # directions in which no colour lies further than the rounding from the centre do not count (a
+        # direction's farthest colour decides, not its spread: a palette's few colours beside a
+        # photograph's many span a direction the photograph alone would not)
+        extent = np.abs((points - self.origin) @ vt.T).max(axis=0)
+        rank = int(np.sum(extent > 2 * TOLERANCE))
         self.basis = vt[:rank].T                                  # (C, r): the span of the colours
         y = (points - self.origin) @ self.basis
         self.low, self.high = (y.min(axis=0), y.max(axis=0)) if rank else (np.zeros(0), np.zeros(0))

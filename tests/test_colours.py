@@ -40,6 +40,20 @@ def test_two_colours_give_their_segment_not_a_box():
     np.testing.assert_array_equal(hull.limit(red[None]), red[None])
 
 
+def test_a_few_colours_off_a_photographs_plane_keep_their_own_direction():
+    # a photograph's many colours lie near one plane (greys, a blue sky, a yellow road marking), a
+    # palette's few lie off it: the hull holds them as they are, and the colours they mix to
+    rng = np.random.default_rng(4)
+    grey = rng.random((40000, 1))
+    tint = (rng.random((40000, 1)) - 0.5) * 0.3
+    photo = np.clip(grey + tint * np.array([[-0.5, -0.2, 0.7]]) + rng.normal(0, 0.002, (40000, 3)), 0, 1)
+    palette = np.array([[0.06, 0.19, 0.12], [0.11, 0.35, 0.24], [0.31, 0.49, 0.17], [0.54, 0.66, 0.23]])
+    hull = ColourHull(np.vstack([photo, palette]))
+    np.testing.assert_allclose(hull.limit(palette), palette, atol=TOLERANCE)
+    green = 0.5 * (palette[1] + palette[2])
+    np.testing.assert_allclose(hull.limit(green[None]), green[None], atol=TOLERANCE)
+
+
 def test_one_colour_and_bad_input():
     assert np.allclose(ColourHull([[0.2, 0.4, 0.6]] * 3).limit(np.random.default_rng(1).random((5, 3))),
                        [0.2, 0.4, 0.6], atol=TOLERANCE)
