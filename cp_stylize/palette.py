@@ -31,7 +31,7 @@ import numpy as np
 from .oklab import from_oklab, to_oklab
 from .sparse import map_parallel
 
-__all__ = ["map_to_palette", "tone_ranks", "palette_noise", "palette_distance", "check_palette", "GREY"]
+__all__ = ["map_to_palette", "kept_chroma", "tone_ranks", "palette_noise", "palette_distance", "check_palette", "GREY"]
 
 #: Chroma (OKLab) below which a colour's hue is not trusted: a grey's hue is noise.
 GREY = 0.04
@@ -59,6 +59,11 @@ TONE_SPREAD = 0.4
 #: fit's exponent per unit of squared distance).
 SOFT = 4.0
 SHARP = 16.0
+#: Palette colours of different hues that fit alike average to a duller colour than any of them (an
+#: umber, an olive and a sienna to a grey mud): the blend's chroma is raised back towards the chosen
+#: colours' own, by at most this factor (a blue and a yellow, opposite hues, still meet in a dull
+#: colour rather than one whose hue is noise).
+CHROMA_KEEP = 2.0
 #: Colours mapped at once.
 _CHUNK = 1 << 16
 
@@ -173,6 +178,7 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
         fit = np.exp(-sharpness * best) * weights[None, :]
         fit /= fit.sum(axis=1, keepdims=True)
         mix[:, channels] = fit @ lab_palette[:, channels]
+    mix[:, 1:] = kept_chroma(mix[:, 1:], fit @ palette_chroma)
     darkest, lightest = lab_palette[0, 0], lab_palette[-1, 0]
     ramp = ((1.0 - TONE_SPREAD) * np.interp(ranks, centres, lab_palette[:, 0])     # the palette's lightness at the
             + TONE_SPREAD * (darkest + (lightest - darkest) * ranks))             # rank, spread evenly in part
@@ -184,6 +190,14 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
     return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * lab[:, 1:]])
+
+
+def kept_chroma(ab, chroma):
+    """A blend's OKLab hue and chroma ``ab`` (M, 2) with its chroma raised towards ``chroma`` (M,), the
+    blended colours' mean chroma, by at most :data:`CHROMA_KEEP` times: colours of different hues
+    blend to their mean hue without turning dull."""
+    blended = np.hypot(ab[:, 0], ab[:, 1])
+    return ab * np.clip(chroma / np.maximum(blended, 1e-12), 1.0, CHROMA_KEEP)[:, None]
 
 
 #: In :func:`palette_distance`, a difference of hue and chroma counts this many times a difference of lightness.

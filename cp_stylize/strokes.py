@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from .oklab import from_oklab, to_oklab
 from .arrays import aligned, expand_runs, smooth_step
-from .palette import check_palette, palette_distance
+from .palette import check_palette, kept_chroma, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
 
@@ -566,7 +566,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
         Each dab's own colour in ``reference``'s terms (the picture's at its centre); default its colour.
     pickup : tuple, optional
         ``(colours (M, 3), pull, shade, lab_palette)``: each dab takes the mean of ``colours`` over the
-        texels it covers (the picture under it at the texture's resolution) and its jitter
+        texels it covers (the picture under it at the texture's resolution; in OKLab, its chroma kept)
+        and its jitter
         (:func:`jitter`) again; without it, dabs keep the colours they have.
     progress : callable, optional
         ``progress(fraction)``; an exception it raises stops the painting.
@@ -589,6 +590,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     reference = base if reference is None else reference
     lab_reference = to_oklab(reference).astype(np.float32)
     lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
+    if pickup is not None:
+        pickup = (to_oklab(pickup[0]), *pickup[1:])
     shapes = _Shapes(dabs)
     uv_axes = _uv_axes(dabs, texels)
 
@@ -614,16 +617,22 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     return colours.astype(np.float32), height.astype(np.float32)
 
 
-def _under(colour, which, i, j, alpha, draws, colours, pull, shade, lab_palette):
-    """The colours (n, 3) of the dabs ``which``: the mean of ``colours`` over the texels each covers
-    (weighted by coverage), jittered by its own draws; a dab that covers no texel keeps ``colour``."""
+def _under(colour, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
+    """The colours (n, 3) of the dabs ``which``: the mean of the OKLab colours ``lab`` over the texels each
+    covers (weighted by coverage, its chroma kept: :func:`cp_stylize.palette.kept_chroma`), jittered by
+    its own draws; a dab that covers no texel keeps ``colour``."""
     place = i - which[0]
     weight = np.bincount(place, weights=alpha, minlength=len(which))
-    mean = np.column_stack([np.bincount(place, weights=alpha * colours[j, c], minlength=len(which))
-                            for c in range(3)]) / np.maximum(weight, 1e-12)[:, None]
+
+    def mean(values):
+        return np.bincount(place, weights=alpha * values, minlength=len(which)) / np.maximum(weight, 1e-12)
+
     found = weight > 1e-6
+    ab = kept_chroma(np.column_stack([mean(lab[j, 1]), mean(lab[j, 2])]),
+                     mean(np.hypot(lab[j, 1], lab[j, 2])))
+    picked = np.column_stack([mean(lab[j, 0]), ab])
     out = np.array(colour, dtype=np.float64)
-    out[found] = jitter(mean[found], draws[found], pull, shade, lab_palette)
+    out[found] = jitter(from_oklab(picked[found]), draws[found], pull, shade, lab_palette)
     return out
 
 
