@@ -78,8 +78,8 @@ RUN = {p.name: p for p in (
     Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
                                     "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0),
     Parameter("stroke_length", "Stroke Length", "Length of the largest dabs of paint (object normalised to a "
-                                                "diameter of 2); the first layer lays up to three end to end "
-                                                "along the picture, as one long stroke", 0.01, 1.0, 0.1, "length",
+                                                "diameter of 2); the first layer lays up to Chain of them end to "
+                                                "end along the picture, as one long stroke", 0.01, 1.0, 0.1, "length",
               precision=3, step=1),
     Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a diameter "
                                               "of 2); strokes narrower than three texels are not drawn",
@@ -87,6 +87,9 @@ RUN = {p.name: p for p in (
     Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.8 times "
                                          "narrower and go only where the picture has detail", 1, 4, 3, "count",
               precision=0, step=100),
+    Parameter("stroke_chain", "Chain", "Dabs the first layer lays end to end along the picture as one stroke, "
+                                       "while the picture's colour under it stays alike (1: single dabs)", 1, 8, 3,
+              "count", precision=0, step=100),
     Parameter("stroke_jitter", "Jitter", "How far each stroke's colour moves towards a neighbouring palette colour "
                                          "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3),
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "

@@ -375,6 +375,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         brush = None
         if settings.strokes > 0:
             brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
+                          chain=settings.stroke_chain,
                           jitter=settings.stroke_jitter, swirl=settings.swirl, strength=settings.strokes,
                           seed=settings.seed, fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
         recolour = None

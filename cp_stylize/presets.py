@@ -235,6 +235,7 @@ class StylizeSettings:
     stroke_length: float = 0.1
     stroke_width: float = 0.03
     stroke_layers: int = 3
+    stroke_chain: int = 3
     stroke_jitter: float = 0.3
     swirl: float = 0.0
     fidelity: float = 0.0           # mapping "tone": how much of the picture's own colours (cp_stylize.palette)
@@ -348,7 +349,7 @@ _FILE = {
     "noise": {"fraction": "noise_fraction", "mapping": "noise_mapping", "spread": "noise_spread", "seed": "seed",
               "fidelity": "fidelity", "palette": "palette"},
     "strokes": {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
-                "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"},
+                "chain": "stroke_chain", "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"},
     "output": {"size": "image_size", "margin": "margin"},
 }
 _PALETTE_ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weight of at least 0)'

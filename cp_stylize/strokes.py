@@ -68,11 +68,16 @@ SWIRL_LIGHT = 0.45
 #: Of the height a later dab paints over, this share is scraped away (the rest stays under it: paint
 #: builds up where strokes overlap).
 FLATTEN = 0.35
-#: A dab's paint thins out over this share of its half width at its sides, and of its half length at
-#: its head (half of it at its tail), so that its edge meets the paint around it without a step.
-EDGE = 0.4
+#: A dab's paint ends within this share of its half width (at least a texel) at its sides and head, and
+#: within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of one texel.
+EDGE = 0.15
+#: A dab's paint is this much thicker at its head (where the brush touched down) and this much thinner at its
+#: tail, and raised by this much in a rim along its sides (paint the bristles pushed aside).
+HEAD = 0.35
+TAIL = 0.4
+RIM = 0.3
 #: How deep the bristle marks in a dab are, as a share of its thickness.
-GROOVE_DEPTH = 0.12
+GROOVE_DEPTH = 0.06
 #: Bristle grooves are at least this many texels apart, and a dab has at most about this many of them
 #: (a broad brush leaves a few strong marks, not a comb's fine lines).
 GROOVE_TEXELS = 3.0
@@ -86,7 +91,8 @@ class Brush:
     """What the strokes look like (lengths of the object normalised to a diameter of 2).
 
     ``width``, ``length``: the first layer's dabs; ``layers``: how many
-    layers, each :data:`LAYER_RATIO` times finer; ``jitter`` in [0, 1]: how
+    layers, each :data:`LAYER_RATIO` times finer; ``chain``: how many dabs
+    the first layer lays end to end as one stroke (:func:`_chained`); ``jitter`` in [0, 1]: how
     far a dab's colour moves towards a neighbouring palette colour;
     ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
     no structure and is light (:data:`SWIRL_LIGHT`: as in the painting's sky;
@@ -99,6 +105,7 @@ class Brush:
     width: float
     length: float
     layers: int = 3
+    chain: int = 3
     jitter: float = 0.3
     swirl: float = 0.0
     strength: float = 1.0
@@ -365,7 +372,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
     parts = []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
-        links = CHAIN if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
+        links = brush.chain if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
         n = int(4 * COVER * mesh.area / (_AREA * length * width))
         points, faces, bary = _surface_samples(mesh, n, rng)
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
@@ -407,17 +414,16 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
 
 #: Where the picture has no structure, a dab turns by up to this angle (radians) from the field, at random.
 WANDER = 0.35
-#: The first layer's dabs are laid in strokes of up to this many: from each dab the next goes on along the
-#: field by :data:`CHAIN_STEP` of its length, with the same paint (its jitter and bristles), until the
-#: picture's colour under it changes by more than :data:`CHAIN_COLOUR` (OKLab) from where the stroke
-#: began.  Each dab keeps its own shape; together they read as one long, bending stroke of the brush.
-CHAIN = 3
+#: The first layer's dabs are laid in strokes of up to :attr:`Brush.chain`: from each dab the next goes on
+#: along the field by :data:`CHAIN_STEP` of its length, with the same paint (its jitter and bristles),
+#: until the picture's colour under it changes by more than :data:`CHAIN_COLOUR` (OKLab) from where the
+#: stroke began.  Each dab keeps its own shape; together they read as one long, bending stroke of the brush.
 CHAIN_STEP = 0.6
 CHAIN_COLOUR = 0.1
 
 
 def _chained(mesh, band, lab, start, along, points, faces, bary, normals, direction, length, links):
-    """Strokes of up to ``links`` dabs begun at ``points`` (see :data:`CHAIN`): each stroke's seed index
+    """Strokes of up to ``links`` dabs begun at ``points`` (see :data:`CHAIN_STEP`): each stroke's seed index
     (m,) and its dabs' centres (m, 3), input faces (m,), barycentrics (m, 3), normals (m, 3) and
     directions (m, 3), a stroke's dabs one after another.  ``lab`` (N, 3) are the band's colours a stroke
     keeps to, ``start`` (n, 3) theirs where each stroke begins; ``along(points, normals, seeds)`` gives
@@ -787,15 +793,19 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     grooves = np.clip(width / (GROOVE_TEXELS * texels.lengths[j]), 2.0, GROOVES * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
     wave = 0.5 * np.pi * grooves * (across + 1.0)
     groove = (0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)) * (1.0 - 0.3 * (along + 1.0))
-    # raised paint: each dab its own thickness, a ridge where the brush lifted (the tail) and along its
-    # edges (paint pushed aside), a little bristle texture on top
-    thickness = 0.7 + 0.6 * ((3.1 * phase) % 1.0)
-    ridge = 0.1 * np.exp(-(((along - 0.7) / 0.25) ** 2)) + 0.1 * across**4
-    # the paint thins to nothing at the dab's sides and head: it neither stands as a step above the
-    # paint around it nor scrapes a groove into it
-    side = (smooth_step((1.0 - np.abs(across)) / EDGE) * smooth_step((along + 1.0) / EDGE)
-            * smooth_step((1.0 - along) / (0.5 * EDGE)))
-    profile = thickness * side * (0.75 + ridge + GROOVE_DEPTH * groove)
+    # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
+    # touched down (the head) and thinning towards the tail where it ran dry; a rim along both sides
+    # where the bristles pushed the paint aside; a little bristle texture along the stroke
+    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
+                                                       - TAIL * 0.5 * (along + 1.0))
+    rim = RIM * np.exp(-(((np.abs(across) - 0.8) / 0.15) ** 2))
+    # the paint ends at the dab's sides and head within a short share of its half width: a stroke's
+    # edge stands as a rounded step, anti-aliased over a texel
+    edge = np.maximum(EDGE * width / 2, texels.lengths[j])              # on the surface
+    edge_across, edge_along = edge / (width / 2), edge / (dabs.length[i] / 2)
+    side = (smooth_step((1.0 - np.abs(across)) / edge_across) * smooth_step((along + 1.0) / edge_along)
+            * smooth_step((1.0 - along) / (3.0 * edge_along)))
+    profile = thickness * side * (0.75 + rim + GROOVE_DEPTH * groove)
     shade = 1.0 + 0.03 * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade = i[order], j[order], alpha[order], profile[order], shade[order]

@@ -170,11 +170,11 @@ def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphe
     assert np.median(np.abs(np.einsum("ij,ij->i", kept[equator], given[equator]))) > 0.99
 
 
-def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere, monkeypatch):
-    monkeypatch.setattr(strokes, "CHAIN", 1)             # single dabs: the same centres whatever the field
+def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere):
     mesh, band, atlas, texels = sphere
     colours = _stripes(band, [0, 0, 1])                    # stripes round the z axis: strokes run around it
-    brush = Brush(width=0.12, length=0.48, layers=1, seed=3)
+    brush = Brush(width=0.12, length=0.48, layers=1, chain=1, seed=3)   # single dabs: the same centres whatever
+    #                                                                   the field
     n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
     meridians = np.array([0.0, 0.0, 1.0]) - n[:, 2:3] * n
     meridians /= np.maximum(np.linalg.norm(meridians, axis=1, keepdims=True), 1e-12)
@@ -187,10 +187,8 @@ def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_n
     assert np.median(np.abs(sure.direction[equator, 2])) > 0.95     # a sure field wins over the stripes
 
 
-def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere, monkeypatch):
+def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere):
     from cp_stylize.oklab import to_oklab
-
-    monkeypatch.setattr(strokes, "CHAIN", 1)             # single dabs: the same centres whatever the field
 
     mesh, band, atlas, texels = sphere
     for grey, calm in ((0.08, True), (0.85, False)):
@@ -198,8 +196,10 @@ def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere, monkey
         colours += 0.01 * np.random.default_rng(2).random(colours.shape, np.float32)   # no structure: noise
         assert (to_oklab(colours[:1])[0, 0] < 0.45) == calm
         kw = dict(texel=0.01)
-        straight = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, seed=5), **kw)
-        swirled = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, seed=5, swirl=1.0), **kw)
+        # single dabs (chain 1): the same centres whatever the field
+        straight = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, chain=1, seed=5), **kw)
+        swirled = place_dabs(mesh, band, colours, Brush(width=0.08, length=0.3, layers=1, chain=1, seed=5, swirl=1.0),
+                             **kw)
         np.testing.assert_array_equal(straight.centre, swirled.centre)
         agree = np.abs(np.einsum("ij,ij->i", straight.direction, swirled.direction))
         if calm:
@@ -208,17 +208,24 @@ def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere, monkey
             assert np.mean(agree < 0.9) > 0.3
 
 
-def test_a_dabs_paint_thins_to_nothing_at_its_edge(sphere):
+def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_edge(sphere):
     mesh, band, atlas, texels = sphere
     one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)   # 16 texels wide
     base = np.zeros((len(texels.points), 3))
     out, height = paint(one, texels, base, np.tile(one.colour, (len(base), 1)))
     across = np.abs(texels.points @ np.cross(one.normal[0], one.direction[0]))
     along = np.abs((texels.points - one.centre[0]) @ one.direction[0])
-    on = (out[:, 0] > 0.5) & (along < 0.1)                          # painted, in the dab's middle
-    assert height[on & (across < 0.05)].min() > 0.5 * height.max()   # its body stands
-    sides = on & (across > 0.17)
-    assert sides.sum() > 5 and height[sides].max() < 0.15 * height.max()  # its sides meet the ground without a step
+    front = texels.points[:, 1] < -0.5                               # the dab's side of the sphere
+    middle = front & (along < 0.1)                                   # across the dab's middle
+    body = height[middle & (across < 0.05)]
+    assert body.min() > 0.3 * height.max()                          # its body stands (the head stands highest)
+    rim = height[middle & (np.abs(across - 0.16) < 0.01)]            # 0.8 of its half width out
+    assert len(rim) > 2 and rim.mean() > 1.15 * body.mean()          # paint pushed aside: a rim along its sides
+    # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
+    beyond = middle & (across > 0.2 + np.max(texels.lengths))
+    assert beyond.sum() > 5 and not np.any(height[beyond] > 0)
+    ramp = middle & (across > 0.2 * (1.0 - strokes.EDGE)) & (across < 0.2)
+    assert ramp.sum() > 2 and height[ramp].min() < rim.min()
 
 
 def test_the_first_layers_dabs_make_long_strokes_along_the_field_that_stop_at_a_colour_edge(sphere):

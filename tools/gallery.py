@@ -5,8 +5,8 @@ Usage (the Python with the ``bpy`` module, from the checkout)::
     python tools/gallery.py --out docs/gallery
 
 Each preset is loaded and run with the Stylize operator at Standard quality
-into a 1024 x 1024 image, as a user would, and the object rendered at 1024
-pixels: Suzanne (the demo's, two subdivision levels) and a UV sphere wearing
+into a 2048 x 2048 image (:data:`IMAGE_SIZE`), as a user would, and the
+object rendered at 1024 pixels: Suzanne (the demo's, two subdivision levels) and a UV sphere wearing
 Blender's forest photograph through their UVs, and a 2 x 1 frame wearing
 Blender's city photograph (buildings, a crane, road markings), seen straight
 on; and each subject wearing its photograph (``<subject>_photo.jpg``).  For
@@ -38,6 +38,10 @@ from cp_stylize_dev import demo, figures, scene  # noqa: E402
 PRESETS = ("starry_night", "van_gogh_form", "sunflower_vase")
 SUBJECTS = ("suzanne", "sphere", "city")
 SIZE = 1024
+#: The stylized image's size: a 1024-pixel render of an object shows about half of its texture, so a
+#: 2048-pixel image gives each pixel of the render a texel of its own (the texel density a studio sets
+#: for a hero asset seen at that size).
+IMAGE_SIZE = 2048
 #: The crop of each render at full size: (row, column) of its top left corner, as shares of the render.
 CROPS = {"suzanne": (0.22, 0.3), "sphere": (0.32, 0.32), "city": (0.05, 0.35), "torus": (0.25, 0.12)}
 #: The preset shown on a torus as well, and the torus's photograph.
@@ -99,7 +103,7 @@ def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", 
     frame(kind, obj, raking)
     start = time.perf_counter()
     if preset is not None:
-        scene.stylize(obj, preset, quality, SIZE)
+        scene.stylize(obj, preset, quality, IMAGE_SIZE)
     seconds = time.perf_counter() - start
     settings = bpy.context.scene.render.image_settings
     settings.file_format, settings.quality = "JPEG", 92

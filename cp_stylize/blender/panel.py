@@ -119,6 +119,7 @@ class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
         col.prop(settings, "stroke_width", text="Width")
         col.prop(settings, "stroke_length", text="Length")
         col.prop(settings, "stroke_layers")
+        col.prop(settings, "stroke_chain")
         col.prop(settings, "stroke_jitter")
         col.prop(settings, "swirl")
         col.prop(settings, "relief")
