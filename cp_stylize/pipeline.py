@@ -40,6 +40,7 @@ from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
 from .painting import painting
 from .palette import map_to_palette, palette_noise
+from .seams import SeamHealing, seam_edges
 from .parameters import DIRECTED_MODES
 from .strokes import Brush, form_field
 from .sampling import texture_at
@@ -211,6 +212,17 @@ def sample_colours(band, colours, channels=3):
     return colours_at(band.face, band.bary, colours, channels)
 
 
+def seam_healing(mesh, colours):
+    """The :class:`~cp_stylize.seams.SeamHealing` of a :class:`ColourInput`'s textures on ``mesh`` (normalised),
+    or None where they have no UV seams."""
+    parts = [seam_edges(mesh.vertices, mesh.input_faces, Texture(*t).uvs, Texture(*t).faces)
+             for t in colours.textures]
+    if not parts or not sum(len(part[0]) for part in parts):
+        return None
+    seams = tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
+    return SeamHealing(mesh.vertices, mesh.input_faces, seams, lambda face, bary: colours_at(face, bary, colours))
+
+
 def colour_digest(colours):
     """A digest of a :class:`ColourInput`'s arrays (see :func:`cp_stylize.cache.digest`)."""
     parts = [colours.corner_colours]
@@ -347,6 +359,16 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     report(0.1)
     painted = (shape, settings.spacing, stencil, colour_digest(colours))
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
+    heal = None
+    if settings.strokes > 0:              # a painting heals the texture's seams: its strokes cross them
+        heal = cache.get("seams", (shape, painted[3]), lambda: seam_healing(mesh, colours))
+        if heal is not None:
+            sampled = cache.get("healed", painted, lambda: read_only(heal(band.face, band.bary, sampled)))
+
+    def picture_at(face, bary):
+        found = colours_at(face, bary, colours)
+        return found if heal is None else heal(face, bary, found)
+
     values = sampled
     weights = settings.palette_weights or None
     if settings.noise_mapping == "tone":
@@ -385,7 +407,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                          palette=settings.palette or None, weights=weights, field=field, recolour=recolour,
                          detail=settings.detail,
-                         source=lambda face, bary: colours_at(face, bary, colours))
+                         source=picture_at)
         report(0.9)
         lap("painting")
     texels = cache.get("texels", layout,
