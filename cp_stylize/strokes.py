@@ -61,6 +61,9 @@ DETAIL = 0.025
 CLIP = 0.2
 #: Each dab's length varies by this share about the brush's.
 LENGTH_SPREAD = 0.12
+#: Each stroke's size (its dabs' length and width alike, so their shape stays) varies by this share about
+#: the brush's: a flat patch takes strokes of several sizes, not rows of equal scales.
+SIZE_SPREAD = 0.25
 #: Swirls (:class:`Swirls`) are this many dab lengths across.
 SWIRL_SIZE = 4.0
 #: Swirls begin at this OKLab lightness of the colours under a dab and take full effect 0.2 above it.
@@ -70,12 +73,14 @@ SWIRL_LIGHT = 0.45
 FLATTEN = 0.35
 #: A dab's paint ends within this share of its half width (at least a texel) at its sides and head, and
 #: within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of one texel.
-EDGE = 0.15
+EDGE = 0.3
 #: A dab's paint is this much thicker at its head (where the brush touched down) and this much thinner at its
 #: tail, and raised by this much in a rim along its sides (paint the bristles pushed aside).
 HEAD = 0.35
 TAIL = 0.4
 RIM = 0.3
+#: The rim's crest, as a share of the dab's half width out from its centre line: inside the edge's ramp.
+RIM_AT = 0.65
 #: How deep the bristle marks in a dab are, as a share of its thickness.
 GROOVE_DEPTH = 0.06
 #: Bristle grooves are at least this many texels apart, and a dab has at most about this many of them
@@ -393,6 +398,8 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         direction = np.cos(turn)[:, None] * direction + np.sin(turn)[:, None] * np.cross(normals, direction)
         length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(len(points)) - 1.0))
         draws, phase = rng.random((len(points), 3)), 2 * np.pi * rng.random(len(points))
+        size = 1.0 + SIZE_SPREAD * (2.0 * rng.random(len(points)) - 1.0)
+        length, width = length * size, width * size
 
         def along(at, normals, which):
             return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad)
@@ -401,12 +408,12 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
             seed, points, faces, bary, normals, direction = _chained(mesh, band, structure, structure[near], along,
                                                                      points, faces, bary, normals, direction, length,
                                                                      links)
-            length, light, draws, phase = length[seed], light[seed], draws[seed], phase[seed]
+            length, width, light, draws, phase = length[seed], width[seed], light[seed], draws[seed], phase[seed]
             pieces = mesh.piece[faces]
         count = len(points)
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
-        parts.append(Dabs(points, normals, direction, length, np.full(count, width),
+        parts.append(Dabs(points, normals, direction, length, width,
                           jitter(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette),
                           pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend))
     return Dabs.concatenate(parts)
@@ -798,7 +805,7 @@ def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
     # where the bristles pushed the paint aside; a little bristle texture along the stroke
     thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
                                                        - TAIL * 0.5 * (along + 1.0))
-    rim = RIM * np.exp(-(((np.abs(across) - 0.8) / 0.15) ** 2))
+    rim = RIM * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
     # the paint ends at the dab's sides and head within a short share of its half width: a stroke's
     # edge stands as a rounded step, anti-aliased over a texel
     edge = np.maximum(EDGE * width / 2, texels.lengths[j])              # on the surface

@@ -219,7 +219,7 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     middle = front & (along < 0.1)                                   # across the dab's middle
     body = height[middle & (across < 0.05)]
     assert body.min() > 0.3 * height.max()                          # its body stands (the head stands highest)
-    rim = height[middle & (np.abs(across - 0.16) < 0.01)]            # 0.8 of its half width out
+    rim = height[middle & (np.abs(across - 0.2 * strokes.RIM_AT) < 0.01)]   # the rim's crest
     assert len(rim) > 2 and rim.mean() > 1.15 * body.mean()          # paint pushed aside: a rim along its sides
     # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
     beyond = middle & (across > 0.2 + np.max(texels.lengths))
