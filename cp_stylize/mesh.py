@@ -139,6 +139,16 @@ class TriangleMesh:
         self.vertex_normals = self._angle_weighted_normals(a, b, c)
         self._kept = None
         self._piece = None
+        self._welded_faces = None
+
+    @property
+    def welded_faces(self):
+        """The input faces (F, 3) as indices of the distinct vertex positions: corners split at a seam (one
+        vertex a side) share their index here."""
+        if self._welded_faces is None:
+            _, welded = np.unique(self.vertices, axis=0, return_inverse=True)
+            self._welded_faces = welded.reshape(-1)[self.input_faces]
+        return self._welded_faces
 
     @property
     def piece(self):
@@ -148,8 +158,7 @@ class TriangleMesh:
             from scipy.sparse import csr_matrix
             from scipy.sparse.csgraph import connected_components
 
-            _, welded = np.unique(self.vertices, axis=0, return_inverse=True)
-            corners = welded.reshape(-1)[self.input_faces]
+            corners = self.welded_faces
             n = len(self.input_faces)
             # a graph of faces and vertex positions: face f links to its three corners
             links = csr_matrix((np.ones(3 * n), (np.repeat(np.arange(n), 3), n + corners.ravel())),

@@ -73,13 +73,13 @@ class Painting:
             if self.source is not None:
                 picture = np.asarray(self.source(faces, barys), dtype=np.float64)[:, :3]
                 reference, source = picture, np.asarray(self.source(dabs.face, dabs.bary))[:, :3]
-                under = picture if self.recolour is None else self.recolour(picture)
+                under = to_oklab(picture if self.recolour is None else self.recolour(picture))
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
             if source is not None:
                 # the picture's lightness at the texture's resolution over the band's: its detail
-                fine = to_oklab(under)[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
+                fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
         if self.columns is not None:

@@ -215,8 +215,7 @@ def sample_colours(band, colours, channels=3):
 def seam_healing(mesh, colours):
     """The :class:`~cp_stylize.seams.SeamHealing` of a :class:`ColourInput`'s textures on ``mesh`` (normalised),
     or None where they have no UV seams."""
-    parts = [seam_edges(mesh.vertices, mesh.input_faces, Texture(*t).uvs, Texture(*t).faces)
-             for t in colours.textures]
+    parts = [seam_edges(mesh.welded_faces, Texture(*t).uvs, Texture(*t).faces) for t in colours.textures]
     if not parts or not sum(len(part[0]) for part in parts):
         return None
     seams = tuple(np.concatenate([part[k] for part in parts]) for k in range(4))

@@ -32,22 +32,21 @@ STEP = 0.25
 UV_TOLERANCE = 1e-5
 
 
-def seam_edges(vertices, faces, uvs, chosen=None):
-    """The UV seams among ``faces`` (F, 3) of ``vertices`` (V, 3) read through ``uvs`` (F, 3, 2).
+def seam_edges(faces, uvs, chosen=None):
+    """The UV seams among ``faces`` (F, 3) read through ``uvs`` (F, 3, 2).
 
-    An edge is a seam where exactly two faces meet (vertices welded by
-    position), both ``chosen`` (F,) bool, and the UVs of a shared corner
-    differ.  Returns ``(face_a, corners_a, face_b, corners_b)``: the two faces
-    (E,) and, for each, its local corners (E, 2) at the edge's two ends in the
-    same order.
+    ``faces`` index the mesh's distinct vertex positions
+    (:attr:`cp_stylize.mesh.TriangleMesh.welded_faces`), so that corners split
+    at a seam are one.  An edge is a seam where exactly two faces meet, both
+    ``chosen`` (F,) bool, and the UVs of a shared corner differ.  Returns
+    ``(face_a, corners_a, face_b, corners_b)``: the two faces (E,) and, for
+    each, its local corners (E, 2) at the edge's two ends in the same order.
     """
-    faces = np.asarray(faces, dtype=np.int64)
+    corners = np.asarray(faces, dtype=np.int64)
     uvs = np.asarray(uvs, dtype=np.float64)
-    chosen = np.ones(len(faces), bool) if chosen is None else np.asarray(chosen, bool)
-    _, welded = np.unique(np.asarray(vertices, dtype=np.float64), axis=0, return_inverse=True)
-    corners = welded.reshape(-1)[faces]                                   # (F, 3) welded vertex ids
-    face = np.repeat(np.arange(len(faces)), 3)
-    first = np.tile([0, 1, 2], len(faces))
+    chosen = np.ones(len(corners), bool) if chosen is None else np.asarray(chosen, bool)
+    face = np.repeat(np.arange(len(corners)), 3)
+    first = np.tile([0, 1, 2], len(corners))
     second = (first + 1) % 3
     ends = np.stack([corners[face, first], corners[face, second]], axis=1)
     keys = np.sort(ends, axis=1)
@@ -132,16 +131,16 @@ class SeamHealing:
         near = np.flatnonzero(np.isfinite(distance))
         if not len(near):
             return out
-        k = nearest[near]
+        k, at, face = nearest[near], points[near], face[near]
         # the distance to the nearest point's seam edge itself, not to the point: the two sides of the
         # seam meet exactly in their mean
         edge = self.end[k] - self.start[k]
-        t = np.clip(np.einsum("ij,ij->i", points[near] - self.start[k], edge)
+        t = np.clip(np.einsum("ij,ij->i", at - self.start[k], edge)
                     / np.maximum(np.einsum("ij,ij->i", edge, edge), 1e-300), 0.0, 1.0)
-        distance = np.linalg.norm(points[near] - self.start[k] - t[:, None] * edge, axis=1)
-        on_a = np.where(face[near] == self.face_a[k], True,
-                        np.where(face[near] == self.face_b[k], False,
-                                 np.einsum("ij,ij->i", points[near] - self.points[k], self.inward[k]) > 0))
+        distance = np.linalg.norm(at - self.start[k] - t[:, None] * edge, axis=1)
+        on_a = np.where(face == self.face_a[k], True,
+                        np.where(face == self.face_b[k], False,
+                                 np.einsum("ij,ij->i", at - self.points[k], self.inward[k]) > 0))
         own = np.where(on_a[:, None], self.colour_a[k], self.colour_b[k])
         other = np.where(on_a[:, None], self.colour_b[k], self.colour_a[k])
         fade = 1.0 - smooth_step(distance / self.reach)

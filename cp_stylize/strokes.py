@@ -578,8 +578,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     source : ndarray, shape (n, 3), optional
         Each dab's own colour in ``reference``'s terms (the picture's at its centre); default its colour.
     pickup : tuple, optional
-        ``(colours (M, 3), pull, shade, lab_palette)``: each dab takes the mean of ``colours`` over the
-        texels it covers (the picture under it at the texture's resolution; in OKLab, its chroma kept)
+        ``(colours (M, 3) in OKLab, pull, shade, lab_palette)``: each dab takes the mean of ``colours``
+        over the texels it covers (the picture under it at the texture's resolution; its chroma kept)
         and its jitter
         (:func:`jitter`) again; without it, dabs keep the colours they have.
     progress : callable, optional
@@ -603,8 +603,6 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     reference = base if reference is None else reference
     lab_reference = to_oklab(reference).astype(np.float32)
     lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
-    if pickup is not None:
-        pickup = (to_oklab(pickup[0]), *pickup[1:])
     shapes = _Shapes(dabs)
     uv_axes = _uv_axes(dabs, texels)
 
@@ -641,9 +639,9 @@ def _under(colour, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
         return np.bincount(place, weights=alpha * values, minlength=len(which)) / np.maximum(weight, 1e-12)
 
     found = weight > 1e-6
-    ab = kept_chroma(np.column_stack([mean(lab[j, 1]), mean(lab[j, 2])]),
-                     mean(np.hypot(lab[j, 1], lab[j, 2])))
-    picked = np.column_stack([mean(lab[j, 0]), ab])
+    under = lab[j]
+    ab = kept_chroma(np.column_stack([mean(under[:, 1]), mean(under[:, 2])]), mean(np.hypot(under[:, 1], under[:, 2])))
+    picked = np.column_stack([mean(under[:, 0]), ab])
     out = np.array(colour, dtype=np.float64)
     out[found] = jitter(from_oklab(picked[found]), draws[found], pull, shade, lab_palette)
     return out

@@ -1,5 +1,6 @@
 import numpy as np
 
+from cp_stylize.mesh import TriangleMesh
 from cp_stylize.pipeline import ColourInput, Texture, colours_at
 from cp_stylize.seams import REACH, SeamHealing, seam_edges
 
@@ -27,21 +28,21 @@ def _strip(split_vertices=False, n=40):
 
 def _healing(vertices, faces, uvs, image):
     colours = ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool), ("clamp", "clamp"))])
-    seams = seam_edges(vertices, faces, uvs)
+    seams = seam_edges(TriangleMesh(vertices, faces).welded_faces, uvs)
     return seams, SeamHealing(vertices, faces, seams, lambda f, b: colours_at(f, b, colours)), colours
 
 
 def test_the_seams_are_the_edges_whose_uvs_differ_on_their_two_sides():
     for split in (False, True):
         vertices, faces, uvs, image = _strip(split)
-        face_a, corners_a, face_b, corners_b = seam_edges(vertices, faces, uvs)
+        face_a, corners_a, face_b, corners_b = seam_edges(TriangleMesh(vertices, faces).welded_faces, uvs)
         assert len(face_a) == 2                                   # the two edges along x = 0
         ends = vertices[faces[face_a[:, None], corners_a]]
         np.testing.assert_allclose(ends[..., 0], 0.0, atol=1e-12)
         np.testing.assert_allclose(ends, vertices[faces[face_b[:, None], corners_b]])   # the same ends, in order
     vertices, faces, uvs, image = _strip()
     uvs[:, :, 0] = vertices[faces][:, :, 0]                       # one UV map without a cut: no seam
-    assert len(seam_edges(vertices, faces, uvs)[0]) == 0
+    assert len(seam_edges(TriangleMesh(vertices, faces).welded_faces, uvs)[0]) == 0
 
 
 def test_colours_meet_in_their_mean_at_a_seam_and_are_untouched_beyond_its_reach():
