@@ -18,14 +18,16 @@ dab on the surface itself:
   the picture's structure where it has some, else (with ``swirl``) the level
   lines of its broad light and dark (rings around a bright patch) or swirls;
   or along a given field (the surface's form);
-- **one flat colour**: the filtered colours at the dab's centre, blurred to
-  the layer's width, moved a little towards a neighbouring palette colour
-  (``jitter``);
+- **a loaded brush**: the filtered colours under the dab, moved a little
+  towards a neighbouring palette colour (``jitter``), and a second colour
+  moved towards another along one side of it, meeting the first in streaks
+  along the bristles; the last dab of a stroke runs dry at its tail;
 - **drawn at the texels** of the atlas (:func:`paint`): a tapered footprint
   ``length`` long and ``width`` wide with anti-aliased edges, clipped where
   the colours under it differ from its own, composited in order; each dab
-  also leaves a ridge profile with bristle grooves, and overlapping dabs
-  stack into a height map (impasto).
+  also leaves a ridge profile with bristle furrows, overlapping dabs stack
+  into a height map (impasto), and the dabs of one stroke run on into one
+  another.
 
 Lengths are those of the object normalised to a diameter of 2, so the
 strokes look the same on an object of any size.
@@ -73,20 +75,32 @@ SWIRL_LIGHT = 0.45
 FLATTEN = 0.35
 #: A dab's paint ends within this share of its half width (at least a texel) at its sides and head, and
 #: within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of one texel.
-EDGE = 0.3
+EDGE = 0.45
 #: A dab's paint is this much thicker at its head (where the brush touched down) and this much thinner at its
 #: tail, and raised by this much in a rim along its sides (paint the bristles pushed aside).
-HEAD = 0.35
+HEAD = 0.2
 TAIL = 0.4
 RIM = 0.3
 #: The rim's crest, as a share of the dab's half width out from its centre line: inside the edge's ramp.
-RIM_AT = 0.65
-#: How deep the bristle marks in a dab are, as a share of its thickness.
-GROOVE_DEPTH = 0.06
+RIM_AT = 0.55
+#: A dab's paint stands this high in its body (a share of its thickness, without its rim and bristle marks).
+BODY = 0.5
+#: How deep the bristle marks in a dab are, as a share of its thickness, and how much lighter and darker they
+#: make its colour.
+GROOVE_DEPTH = 0.2
+STREAK = 0.07
+#: A dab's second colour (:attr:`Dabs.second`) meets its first over this share of its width, in streaks along
+#: the bristles this much of its half width deep.
+LOAD_SOFT = 0.5
+LOAD_STREAK = 0.5
+#: The last dab of a stroke runs dry from this share of its half length behind its centre to its tail.
+DRY_AT = 0.4
 #: Bristle grooves are at least this many texels apart, and a dab has at most about this many of them
 #: (a broad brush leaves a few strong marks, not a comb's fine lines).
 GROOVE_TEXELS = 3.0
 GROOVES = 5.0
+#: A dab's place in its stroke (:attr:`Dabs.ends`): the first (the brush touched down) or the last (it lifted).
+HEAD_END, TAIL_END = 1, 2
 #: Dabs drawn at once (a block of pairs of texels and dabs).
 _CHUNK = 3000
 
@@ -150,6 +164,8 @@ class Dabs:
     bary: np.ndarray
     draws: np.ndarray = None       # (n, 3) uniform draws of each dab's jitter (see :func:`jitter`), or None
     bend: np.ndarray = None        # (n,) curvature of each dab's centre line, or None (straight)
+    ends: np.ndarray = None        # (n,) HEAD_END | TAIL_END: which ends of its stroke a dab is; None: both
+    second: np.ndarray = None      # (n, 3) the second colour the brush is loaded with; None: ``colour``
 
     def __len__(self):
         return len(self.centre)
@@ -161,6 +177,16 @@ class Dabs:
             return None if any(f is None for f in found) else np.concatenate(found)
 
         return cls(*[joined(f.name) for f in dataclasses.fields(cls)])
+
+    @property
+    def heads(self):
+        """Whether each dab begins its stroke (n,)."""
+        return np.ones(len(self), bool) if self.ends is None else (self.ends & HEAD_END) > 0
+
+    @property
+    def tails(self):
+        """Whether each dab ends its stroke (n,)."""
+        return np.ones(len(self), bool) if self.ends is None else (self.ends & TAIL_END) > 0
 
     @property
     def depth(self):
@@ -404,18 +430,20 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         def along(at, normals, which):
             return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad)
 
+        ends = None
         if links > 1:
-            seed, points, faces, bary, normals, direction = _chained(mesh, band, structure, structure[near], along,
-                                                                     points, faces, bary, normals, direction, length,
-                                                                     links)
+            seed, points, faces, bary, normals, direction, ends = _chained(
+                mesh, band, structure, structure[near], along, points, faces, bary, normals, direction, length, links)
             length, width, light, draws, phase = length[seed], width[seed], light[seed], draws[seed], phase[seed]
             pieces = mesh.piece[faces]
         count = len(points)
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
-        parts.append(Dabs(points, normals, direction, length, width,
-                          jitter(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette),
-                          pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend))
+        pull = brush.jitter * (1.0 - brush.fidelity)
+        parts.append(Dabs(points, normals, direction, length, width, jitter(colour, draws, pull, brush.jitter, lab_palette),
+                          pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend,
+                          np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends,
+                          jitter(colour, _loaded(draws), pull, brush.jitter, lab_palette)))
     return Dabs.concatenate(parts)
 
 
@@ -432,7 +460,8 @@ CHAIN_COLOUR = 0.1
 def _chained(mesh, band, lab, start, along, points, faces, bary, normals, direction, length, links):
     """Strokes of up to ``links`` dabs begun at ``points`` (see :data:`CHAIN_STEP`): each stroke's seed index
     (m,) and its dabs' centres (m, 3), input faces (m,), barycentrics (m, 3), normals (m, 3) and
-    directions (m, 3), a stroke's dabs one after another.  ``lab`` (N, 3) are the band's colours a stroke
+    directions (m, 3), a stroke's dabs one after another, and which ends of its stroke each is (m,:
+    :attr:`Dabs.ends`).  ``lab`` (N, 3) are the band's colours a stroke
     keeps to, ``start`` (n, 3) theirs where each stroke begins; ``along(points, normals, seeds)`` gives
     the field's directions."""
     piece = mesh.piece[faces]
@@ -453,7 +482,10 @@ def _chained(mesh, band, lab, start, along, points, faces, bary, normals, direct
         found.append((alive, x, f, b, n, d))
     seed, *rest = (np.concatenate(parts) for parts in zip(*found))
     order = np.argsort(seed, kind="stable")                  # a stroke's dabs together, in the order laid
-    return (seed[order], *(a[order] for a in rest))
+    seed = seed[order]
+    new = np.r_[True, seed[1:] != seed[:-1]]
+    ends = HEAD_END * new + TAIL_END * np.r_[new[1:], True]
+    return (seed, *(a[order] for a in rest), ends.astype(np.int8))
 
 
 #: A dab bends by at most this share of its width (the depth of its arc), however fast the field turns.
@@ -499,10 +531,14 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
     return read.reshape(len(points), k, -1).mean(axis=1)
 
 
+#: The most a dab's jitter moves its lightness (OKLab), at a jitter of 1.
+SHADE = 0.2
+
+
 def jitter(colours, draws, pull, shade, lab_palette):
     """sRGB colours (n, 3), each moved towards one of the three palette colours nearest to it
     (:func:`cp_stylize.palette.palette_distance`: its neighbours in hue first) by up to ``pull``, and
-    its lightness by up to ``shade`` times 0.1: broken colour.  ``draws`` (n, 3) in [0, 1) pick the
+    its lightness by up to ``shade`` times :data:`SHADE`: broken colour.  ``draws`` (n, 3) in [0, 1) pick the
     neighbour, the share of ``pull`` and the lightness, so that a dab keeps its jitter whatever
     colour it picks up."""
     lab = to_oklab(colours)
@@ -510,8 +546,14 @@ def jitter(colours, draws, pull, shade, lab_palette):
         near = np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
         pick = near[np.arange(len(lab)), np.minimum((draws[:, 0] * near.shape[1]).astype(np.int64), near.shape[1] - 1)]
         lab += (pull * draws[:, 1])[:, None] * (lab_palette[pick] - lab)
-    lab[:, 0] += 0.1 * shade * (2.0 * draws[:, 2] - 1.0)
+    lab[:, 0] += SHADE * shade * (2.0 * draws[:, 2] - 1.0)
     return from_oklab(lab)
+
+
+def _loaded(draws):
+    """The jitter draws (n, 3) of the second colour a brush is loaded with, from those of its first: another of
+    the neighbouring palette colours, and a lightness on the other side of the picked-up colour's."""
+    return (draws + 0.5) % 1.0
 
 
 @dataclasses.dataclass
@@ -614,9 +656,10 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
         drawn = alpha > 1e-3
         i, j, alpha, along, across = (x[drawn] for x in (i, j, alpha, along, across))
         colour = dabs.colour[which]
+        second = colour if dabs.second is None else dabs.second[which]
         if pickup is not None and len(i):
-            colour = _under(colour, which, i, j, alpha, dabs.draws[which], *pickup)
-        return _composite(dabs, texels, colour, which[0], i, j, alpha, along, across)
+            colour, second = _under((colour, second), which, i, j, alpha, dabs.draws[which], *pickup)
+        return _composite(dabs, texels, (colour, second), which[0], i, j, alpha, along, across)
 
     colours = np.array(base, dtype=np.float64)
     height = np.zeros(len(texels.points))
@@ -628,10 +671,11 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     return colours.astype(np.float32), height.astype(np.float32)
 
 
-def _under(colour, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
-    """The colours (n, 3) of the dabs ``which``: the mean of the OKLab colours ``lab`` over the texels each
-    covers (weighted by coverage, its chroma kept: :func:`cp_stylize.palette.kept_chroma`), jittered by
-    its own draws; a dab that covers no texel keeps ``colour``."""
+def _under(colours, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
+    """The two colours (n, 3 each) the brushes of the dabs ``which`` are loaded with: the mean of the OKLab
+    colours ``lab`` over the texels each covers (weighted by coverage, its chroma kept:
+    :func:`cp_stylize.palette.kept_chroma`), jittered by its own draws and by those of its second colour
+    (:func:`_loaded`); a dab that covers no texel keeps ``colours``."""
     place = i - which[0]
     weight = np.bincount(place, weights=alpha, minlength=len(which))
 
@@ -642,8 +686,10 @@ def _under(colour, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
     under = lab[j]
     ab = kept_chroma(np.column_stack([mean(under[:, 1]), mean(under[:, 2])]), mean(np.hypot(under[:, 1], under[:, 2])))
     picked = np.column_stack([mean(under[:, 0]), ab])
-    out = np.array(colour, dtype=np.float64)
-    out[found] = jitter(from_oklab(picked[found]), draws[found], pull, shade, lab_palette)
+    picked = from_oklab(picked[found])
+    out = [np.array(c, dtype=np.float64) for c in colours]
+    for o, d in zip(out, (draws[found], _loaded(draws[found]))):
+        o[found] = jitter(picked, d, pull, shade, lab_palette)
     return out
 
 
@@ -785,41 +831,57 @@ def _geometry(shapes, texels, i, j):
     return i[covered], j[covered], alpha[covered], along[covered], across[covered]
 
 
-def _composite(dabs, texels, colour, first, i, j, alpha, along, across):
-    """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' colours ``colour`` (from dab
+def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
+    """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' two colours ``colours`` (from dab
     ``first`` on): per texel touched, how much of what lies under the block shows through, and what
     the block adds (colour and height)."""
     if not len(i):
         return None
     width = dabs.width[i]
     phase = dabs.phase[i]
-    # bristle marks along the stroke, irregular: two waves across it, their number a dab's own, fading
-    # towards the tail where the brush runs dry
+    head, tail = dabs.heads[i], dabs.tails[i]
+    # a dab within a stroke runs on from the one before it: its marks and rims go straight on into its head,
+    # where a stroke's first dab bends them round its rounded head
+    across = np.where(head, across, across * _half_width(along))
+    # bristle marks along the stroke, irregular: two waves across it, their number a dab's own (a stroke's
+    # dabs share it, so its marks run on through them)
     grooves = np.clip(width / (GROOVE_TEXELS * texels.lengths[j]), 2.0, GROOVES * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
     wave = 0.5 * np.pi * grooves * (across + 1.0)
-    groove = (0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)) * (1.0 - 0.3 * (along + 1.0))
+    bristle = 0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)
+    groove = bristle * np.where(tail, 1.0 - 0.3 * (along + 1.0), 1.0)      # fading where the brush runs dry
+    # a loaded brush: the second colour along one side of the stroke, meeting the first in streaks
+    side_of = (5.7 * phase) % 1.0 - 0.5
+    load = smooth_step(0.5 + (across - side_of + LOAD_STREAK * bristle) / LOAD_SOFT)
+    # the tail runs dry: the paint breaks up along the bristles (the broadest of them) and lets what lies
+    # under it show
+    dry = np.where(tail, np.clip((along - DRY_AT) / (1.0 - DRY_AT), 0.0, 1.0), 0.0)
+    alpha = alpha * smooth_step(0.5 + (np.sin(wave + phase) + 1.4 - 2.8 * dry) / 0.8)
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
-    # touched down (the head) and thinning towards the tail where it ran dry; a rim along both sides
-    # where the bristles pushed the paint aside; a little bristle texture along the stroke
-    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
-                                                       - TAIL * 0.5 * (along + 1.0))
+    # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
+    # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
+    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + head * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
+                                                       - tail * TAIL * 0.5 * (along + 1.0))
     rim = RIM * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
-    # the paint ends at the dab's sides and head within a short share of its half width: a stroke's
-    # edge stands as a rounded step, anti-aliased over a texel
+    # the paint ends at the dab's sides and at its stroke's ends within a short share of its half width: a
+    # stroke's edge stands as a rounded step, anti-aliased over a texel; a dab within a stroke runs on into
+    # the one before it (it lays its paint over that one's, not on top of it)
     edge = np.maximum(EDGE * width / 2, texels.lengths[j])              # on the surface
     edge_across, edge_along = edge / (width / 2), edge / (dabs.length[i] / 2)
-    side = (smooth_step((1.0 - np.abs(across)) / edge_across) * smooth_step((along + 1.0) / edge_along)
+    side = (smooth_step((1.0 - np.abs(across)) / edge_across)
+            * np.where(head, smooth_step((along + 1.0) / edge_along), 1.0)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
-    profile = thickness * side * (0.75 + rim + GROOVE_DEPTH * groove)
-    shade = 1.0 + 0.03 * groove
+    profile = thickness * side * (BODY + rim + GROOVE_DEPTH * groove)
+    scrape = np.where(head, FLATTEN, 1.0)
+    shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
-    i, j, alpha, profile, shade = i[order], j[order], alpha[order], profile[order], shade[order]
+    i, j, alpha, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, profile, shade, load, side,
+                                                                          scrape))
     heads = np.flatnonzero(np.r_[True, j[1:] != j[:-1]])
     through, shown = _over(alpha, heads)
     weight = alpha * shown * shade
-    paint = np.asarray(colour)[i - first]
+    paint = (1.0 - load)[:, None] * np.asarray(colours[0])[i - first] + load[:, None] * np.asarray(colours[1])[i - first]
     added = np.column_stack([np.add.reduceat(weight * paint[:, c], heads) for c in range(3)])
-    height_through, height_shown = _over(FLATTEN * alpha * side[order], heads)
+    height_through, height_shown = _over(scrape * alpha * side, heads)
     height_added = np.add.reduceat(alpha * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added
 

@@ -218,7 +218,7 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     front = texels.points[:, 1] < -0.5                               # the dab's side of the sphere
     middle = front & (along < 0.1)                                   # across the dab's middle
     body = height[middle & (across < 0.05)]
-    assert body.min() > 0.3 * height.max()                          # its body stands (the head stands highest)
+    assert body.min() > 0.25 * height.max()       # its body stands, bristle furrows and all (the head and rims stand highest)
     rim = height[middle & (np.abs(across - 0.2 * strokes.RIM_AT) < 0.01)]   # the rim's crest
     assert len(rim) > 2 and rim.mean() > 1.15 * body.mean()          # paint pushed aside: a rim along its sides
     # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
@@ -259,3 +259,75 @@ def test_a_dab_bends_with_a_field_that_turns_and_is_straight_where_it_does_not(s
     low = np.abs(z) < 0.5
     np.testing.assert_allclose(dabs.bend[low], expected[low], atol=0.35)
     assert np.median(np.abs(dabs.bend[np.abs(z) < 0.1])) < 0.2
+
+
+def _chained_pair(mesh, ends, length=0.6, width=0.2):
+    """Two dabs laid along z one after another, as a stroke's dabs are (:data:`strokes.CHAIN_STEP` apart), with
+    the same paint, and the given ``ends`` flags."""
+    step = strokes.CHAIN_STEP * length
+    two = Dabs.concatenate([_one_dab(mesh, [0.0, -1.0, -0.5 * step], [0, 0, 1], length, width),
+                            _one_dab(mesh, [0.0, -1.0, 0.5 * step], [0, 0, 1], length, width)])
+    two.ends = np.asarray(ends, np.int8)
+    return two
+
+
+def test_a_strokes_dabs_have_one_head_and_one_tail_and_run_on_into_one_another(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = _stripes(band, [0, 0, 1])
+    dabs = place_dabs(mesh, band, colours, Brush(width=0.06, length=0.24, layers=2, seed=4), texel=0.01)
+    first = dabs.layer == 0
+    same = (np.all(dabs.draws[1:] == dabs.draws[:-1], axis=1) & (dabs.phase[1:] == dabs.phase[:-1])
+            & first[1:] & first[:-1])
+    assert same.sum() > 0.3 * first.sum()
+    assert not np.any(dabs.tails[:-1][same]) and not np.any(dabs.heads[1:][same])   # within a stroke: no ends
+    assert np.all(dabs.heads[1:][~same]) and np.all(dabs.tails[:-1][~same])          # and each stroke has both
+    assert np.all(dabs.heads[~first] & dabs.tails[~first])                           # finer dabs stand alone
+    # drawn, the second dab lays its paint over the first's: no ridge where its head lies on the first's body
+    front = texels.points[:, 1] < -0.5
+    middle = front & (np.abs(texels.points @ [1.0, 0.0, 0.0]) < 0.03)
+    base = np.zeros((len(texels.points), 3))
+    reference = np.tile([[1.0, 0.0, 0.0]], (len(base), 1))
+    head_of_second = middle & (np.abs(texels.points[:, 2] - (0.5 * strokes.CHAIN_STEP - 0.5) * 0.6) < 0.06)
+    body_of_first = middle & (np.abs(texels.points[:, 2] + 0.5 * strokes.CHAIN_STEP * 0.6) < 0.06)
+    _, one_stroke = paint(_chained_pair(mesh, [strokes.HEAD_END, strokes.TAIL_END]), texels, base, reference)
+    _, two_strokes = paint(_chained_pair(mesh, [3, 3]), texels, base, reference)
+    assert one_stroke[head_of_second].max() < 1.1 * one_stroke[body_of_first].max()
+    assert two_strokes[head_of_second].max() > 1.3 * two_strokes[body_of_first].max()   # two strokes pile up
+
+
+def test_a_strokes_last_dab_runs_dry_along_its_bristles_and_the_others_do_not(sphere):
+    mesh, band, atlas, texels = sphere
+    base = np.zeros((len(texels.points), 3))
+    reference = np.tile([[1.0, 0.0, 0.0]], (len(base), 1))
+    front = texels.points[:, 1] < -0.5
+    across = np.abs(texels.points[:, 0])
+    along = texels.points[:, 2] / 0.4                                 # the dab's half length is 0.4
+    covered = {}
+    for ends in (strokes.HEAD_END, strokes.HEAD_END | strokes.TAIL_END):
+        dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)
+        dab.ends = np.array([ends], np.int8)
+        out, _ = paint(dab, texels, base, reference)
+        covered[ends] = out[:, 0]
+    body = front & (np.abs(along) < 0.3) & (across < 0.1)
+    tail = front & (along > 0.75) & (along < 0.85) & (across < 0.1)
+    for red in covered.values():
+        assert red[body].min() > 0.8                                  # the body is covered
+    assert covered[strokes.HEAD_END][tail].min() > 0.8                # a dab that goes on is covered to its tail
+    dry = covered[strokes.HEAD_END | strokes.TAIL_END][tail]
+    assert dry.min() < 0.3 and dry.max() > 0.8                        # the stroke's end breaks up: gaps and paint
+
+
+def test_a_loaded_brush_lays_its_second_colour_along_one_side_in_streaks(sphere):
+    mesh, band, atlas, texels = sphere
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(1.0, 0.0, 0.0))
+    dab.second = np.array([[0.0, 0.0, 1.0]])
+    dab.phase = np.array([0.3])
+    base = np.zeros((len(texels.points), 3))
+    out, _ = paint(dab, texels, base, np.tile([[0.5, 0.0, 0.5]], (len(base), 1)))
+    front = texels.points[:, 1] < -0.5
+    body = front & (np.abs(texels.points[:, 2]) < 0.1) & (np.abs(texels.points[:, 0]) < 0.15)
+    blue = out[body, 2] / np.maximum(out[body, 0] + out[body, 2], 1e-9)
+    assert np.mean(blue > 0.8) > 0.15 and np.mean(blue < 0.2) > 0.15     # both colours, each where it lies
+    # the second colour's share changes across the stroke far more than along it
+    x, z = texels.points[body, 0], texels.points[body, 2]
+    assert abs(np.corrcoef(blue, x)[0, 1]) > 3 * abs(np.corrcoef(blue, z)[0, 1])
