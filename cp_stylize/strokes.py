@@ -70,18 +70,20 @@ SIZE_SPREAD = 0.25
 SWIRL_SIZE = 4.0
 #: Swirls begin at this OKLab lightness of the colours under a dab and take full effect 0.2 above it.
 SWIRL_LIGHT = 0.45
-#: Of the height a later dab paints over, this share is scraped away (the rest stays under it: paint
-#: builds up where strokes overlap).
+#: Of the height a later stroke paints over, this share is scraped away (the rest stays under it: paint
+#: builds up where strokes overlap); a dab within a stroke lays its paint over the one before it, all of it.
 FLATTEN = 0.35
-#: A dab's paint ends within this share of its half width (at least a texel) at its sides and head, and
-#: within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of one texel.
+#: A dab's paint ends within this share of its half width (at least a texel) at its sides and its stroke's
+#: head, and within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of
+#: one texel.
 EDGE = 0.45
-#: A dab's paint is this much thicker at its head (where the brush touched down) and this much thinner at its
-#: tail, and raised by this much in a rim along its sides (paint the bristles pushed aside).
+#: A stroke's paint is this much thicker at its head (where the brush touched down) and a stroke's last dab this
+#: much thinner at its tail; each dab's paint is raised by this much in a rim along its sides (paint the
+#: bristles pushed aside).
 HEAD = 0.2
 TAIL = 0.4
 RIM = 0.3
-#: The rim's crest, as a share of the dab's half width out from its centre line: inside the edge's ramp.
+#: The rim's crest, as a share of the dab's half width out from its centre line: where the edge's ramp begins.
 RIM_AT = 0.55
 #: A dab's paint stands this high in its body (a share of its thickness, without its rim and bristle marks).
 BODY = 0.5
@@ -839,28 +841,29 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
         return None
     width = dabs.width[i]
     phase = dabs.phase[i]
-    head, tail = dabs.heads[i], dabs.tails[i]
+    opens, closes = dabs.heads[i], dabs.tails[i]           # whether each pair's dab begins, ends its stroke
     # a dab within a stroke runs on from the one before it: its marks and rims go straight on into its head,
     # where a stroke's first dab bends them round its rounded head
-    across = np.where(head, across, across * _half_width(along))
+    across = np.where(opens, across, across * _half_width(along))
     # bristle marks along the stroke, irregular: two waves across it, their number a dab's own (a stroke's
     # dabs share it, so its marks run on through them)
     grooves = np.clip(width / (GROOVE_TEXELS * texels.lengths[j]), 2.0, GROOVES * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
     wave = 0.5 * np.pi * grooves * (across + 1.0)
-    bristle = 0.65 * np.sin(wave + phase) + 0.35 * np.sin(1.7 * wave + 2.0 * phase)
-    groove = bristle * np.where(tail, 1.0 - 0.3 * (along + 1.0), 1.0)      # fading where the brush runs dry
+    broad = np.sin(wave + phase)                                         # the broadest bristles
+    bristle = 0.65 * broad + 0.35 * np.sin(1.7 * wave + 2.0 * phase)
+    groove = bristle * np.where(closes, 1.0 - 0.3 * (along + 1.0), 1.0)      # fading where the brush runs dry
     # a loaded brush: the second colour along one side of the stroke, meeting the first in streaks
     side_of = (5.7 * phase) % 1.0 - 0.5
     load = smooth_step(0.5 + (across - side_of + LOAD_STREAK * bristle) / LOAD_SOFT)
     # the tail runs dry: the paint breaks up along the bristles (the broadest of them) and lets what lies
     # under it show
-    dry = np.where(tail, np.clip((along - DRY_AT) / (1.0 - DRY_AT), 0.0, 1.0), 0.0)
-    alpha = alpha * smooth_step(0.5 + (np.sin(wave + phase) + 1.4 - 2.8 * dry) / 0.8)
+    dry = np.where(closes, np.clip((along - DRY_AT) / (1.0 - DRY_AT), 0.0, 1.0), 0.0)
+    alpha = alpha * smooth_step(0.5 + (broad + 1.4 - 2.8 * dry) / 0.8)
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
     # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
     # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
-    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + head * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
-                                                       - tail * TAIL * 0.5 * (along + 1.0))
+    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + opens * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
+                                                       - closes * TAIL * 0.5 * (along + 1.0))
     rim = RIM * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
     # the paint ends at the dab's sides and at its stroke's ends within a short share of its half width: a
     # stroke's edge stands as a rounded step, anti-aliased over a texel; a dab within a stroke runs on into
@@ -868,10 +871,10 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
     edge = np.maximum(EDGE * width / 2, texels.lengths[j])              # on the surface
     edge_across, edge_along = edge / (width / 2), edge / (dabs.length[i] / 2)
     side = (smooth_step((1.0 - np.abs(across)) / edge_across)
-            * np.where(head, smooth_step((along + 1.0) / edge_along), 1.0)
+            * np.where(opens, smooth_step((along + 1.0) / edge_along), 1.0)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
     profile = thickness * side * (BODY + rim + GROOVE_DEPTH * groove)
-    scrape = np.where(head, FLATTEN, 1.0)
+    scrape = np.where(opens, FLATTEN, 1.0)
     shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, profile, shade, load, side,
