@@ -34,7 +34,7 @@ from .smoothing import GaussianSmoother, taper
 from .sparse import SplitMatrix
 from .stencils import gradient_matrices
 
-__all__ = ["contour_field", "line_strength", "line_width", "ink_colour"]
+__all__ = ["contour_field", "line_strength", "line_width", "ink_colour", "thin_lines"]
 
 #: A line starts where D reaches this share of its 99th percentile, and is full at three times it.
 LINE_START = 0.25
@@ -114,3 +114,58 @@ def ink_colour(palette):
     lab = to_oklab(np.asarray(palette, dtype=np.float64)[:, :3])
     darkest = lab[int(np.argmin(lab[:, 0]))] * [INK_LIGHTNESS, 1.0, 1.0]
     return from_oklab(darkest)
+
+
+#: Thin lines (:func:`thin_lines`) start where the picture is this much darker (OKLab lightness) than
+#: its surroundings, and are full at FINE_FULL.
+FINE_START = 0.03
+FINE_FULL = 0.09
+#: A thin feature is drawn only where it runs on as a line at least this many ``radius`` long (the
+#: largest opening of its depth by segments in :data:`FINE_ANGLES` directions): the gaps between a
+#: tree's leaves, dots too, are left to the dabs.
+FINE_LENGTH = 4.0
+FINE_ANGLES = 8
+#: The depth is smoothed by a Gaussian of this many texels first: the dots of a lattice or of a line
+#: sampled across texels join into one line.
+FINE_JOIN = 0.8
+
+
+def thin_lines(lightness, flat, size, radius):
+    """How much ink (M,) in [0, 1] the picture's thin dark features take at the atlas texels ``flat``
+    (M,) of a ``size`` square atlas, from the picture's OKLab ``lightness`` (M,) there: a crane's jib,
+    a fence post, a mast, a window's bars, too thin for the finest dab to carry.
+
+    A feature is thin where a morphological closing by a disc of ``radius`` texels fills it in (a
+    black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink.  A
+    disc is the same in every direction, so the lines do not depend on how a chart lies in the atlas;
+    the atlas's margin texels continue the surface past each chart's edge, so the few texels the
+    disc reads across an edge come from the surface on the other side.
+    """
+    from scipy import ndimage
+
+    r = max(1, int(round(radius)))
+    y, x = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = x**2 + y**2 <= radius**2 + 0.25
+    image = np.ones(size * size, dtype=np.float32)
+    image[flat] = lightness
+    image = image.reshape(size, size)
+    depth = ndimage.gaussian_filter(ndimage.grey_closing(image, footprint=disc) - image, FINE_JOIN)
+    depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
+                             for segment in _segments(FINE_LENGTH * radius)])
+    ink = np.clip((depth.ravel() - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
+    cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
+    ink = ndimage.grey_dilation(ink.reshape(size, size), footprint=cross)      # a line at least a brush's width
+    return ndimage.uniform_filter(ink, 3, mode="constant").ravel()[flat]       # anti-aliased over a texel
+
+
+def _segments(length):
+    """Footprints of line segments ``length`` texels long through the centre, in :data:`FINE_ANGLES`
+    directions evenly over a half turn."""
+    r = max(1, int(np.ceil(length / 2)))
+    t = np.linspace(-length / 2, length / 2, 4 * r + 1)
+    out = []
+    for angle in np.arange(FINE_ANGLES) * np.pi / FINE_ANGLES:
+        footprint = np.zeros((2 * r + 1, 2 * r + 1), dtype=bool)
+        footprint[np.rint(r + t * np.sin(angle)).astype(int), np.rint(r + t * np.cos(angle)).astype(int)] = True
+        out.append(footprint)
+    return out

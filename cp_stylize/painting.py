@@ -14,7 +14,7 @@ import numpy as np
 
 from .arrays import smooth_step
 from .baking import texel_lengths
-from .contours import contour_field, ink_colour, line_strength, line_width
+from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab
 from .strokes import Brush, StrokeField, Texels, paint, place_dabs
 
@@ -28,6 +28,11 @@ GRAIN_REACH = 0.12
 #: colours, fully at this OKLab lightness below them: the line keeps to the dark side of an edge, as a
 #: painter outlines a form, and is sharp at the edge itself instead of a soft band across it.
 LINE_EDGE = 0.04
+#: The picture's thin dark lines (:func:`cp_stylize.contours.thin_lines`: a crane's jib, a mast, a fence
+#: post, too thin for the finest dab) are inked this many times as strongly as the contours (at most
+#: fully), with a closing disc of this share of the finest dabs' width, and at least 1.5 texels.
+THIN = 1.6
+THIN_RADIUS = 0.4
 
 
 class Painting:
@@ -46,7 +51,9 @@ class Painting:
     finer than the band, shows in the paint (as a brush that picks up the
     wet paint under it): the difference between the recoloured picture's
     OKLab lightness and the band's colours', kept within
-    :data:`GRAIN_REACH`, is added to the painted lightness.
+    :data:`GRAIN_REACH`, is added to the painted lightness.  With
+    ``contours`` and the picture, the picture's thin dark lines are inked too
+    (:data:`THIN`), over the strokes and under the contours.
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
@@ -82,16 +89,23 @@ class Painting:
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
+                if self.contours > 0:                   # the thin lines no dab can carry, drawn as a rigger would
+                    finest = np.median(dabs.width[dabs.layer == dabs.layer.max()]) / np.median(where.lengths)
+                    thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
+                    out = self._inked(out, min(1.0, THIN * self.contours) * thin)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
                 strength = strength * _box(smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
-            ink = self.contours * strength[:, None]
-            target = 0.25 * out if self.ink is None else self.ink
-            out = out + ink * (target - out)
+            out = self._inked(out, self.contours * strength)
         painted = colours.copy()
         painted[:, :3] = out
         return painted, height
+
+    def _inked(self, colours, amount):
+        """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ink, or darkened without one."""
+        target = 0.25 * colours if self.ink is None else self.ink
+        return colours + amount[:, None] * (target - colours)
 
 
 def _with_grain(painted, fine, strength):

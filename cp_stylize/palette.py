@@ -64,6 +64,11 @@ SHARP = 16.0
 #: colours' own, by at most this factor (a blue and a yellow, opposite hues, still meet in a dull
 #: colour rather than one whose hue is noise).
 CHROMA_KEEP = 2.0
+#: A picture's grey (asphalt, an overcast sky, concrete) keeps this share of the palette colour's
+#: chroma, and a colour of chroma VIVID (OKLab) or more all of it: what is grey in the picture reads as
+#: a muted colour in the painting, what is coloured as a strong one.
+MUTED = 0.5
+VIVID = 0.08
 #: Colours mapped at once.
 _CHUNK = 1 << 16
 
@@ -188,6 +193,7 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
     mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
     own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
+    ab *= (MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0))[:, None]    # a grey stays a muted colour
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
     return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * lab[:, 1:]])
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cp_stylize import Band, Sphere
-from cp_stylize.contours import contour_field, ink_colour, line_strength, line_width
+from cp_stylize.contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from cp_stylize.oklab import hue_difference, to_oklab
 
 
@@ -44,3 +44,40 @@ def test_lines_are_as_wide_as_the_band_can_hold_and_drawn_in_the_palettes_darkes
     assert to_oklab(ink)[0] == pytest.approx(0.6 * to_oklab([0.05, 0.1, 0.3])[0], rel=1e-3)
     assert hue_difference(to_oklab(ink), to_oklab([0.05, 0.1, 0.3])) < 5
     assert ink_colour([]) is None
+
+
+def _thin(image, radius=2.0):
+    size = image.shape[0]
+    flat = np.arange(size * size)
+    return thin_lines(image.ravel(), flat, size, radius).reshape(size, size)
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0, 45.0, 75.0])
+def test_thin_lines_ink_a_thin_dark_line_in_any_direction_but_not_a_broad_dark_form(angle):
+    size = 96
+    y, x = np.mgrid[:size, :size] - size / 2 + 0.5
+    t = np.radians(angle)
+    across = np.abs(-np.sin(t) * x + np.cos(t) * y)
+    image = np.full((size, size), 0.8, dtype=np.float32)
+    image[across < 1.0] = 0.35                                  # a crane's jib: two texels wide, across the picture
+    image[(np.abs(x + 25) < 12) & (np.abs(y - 25) < 12) & (across > 6)] = 0.3     # a broad dark block
+    ink = _thin(image)
+    middle = (np.hypot(x, y) < 30) & (np.hypot(x + 25, y - 25) > 20)
+    assert ink[(across < 0.6) & middle].min() > 0.8            # the line is inked along its whole length
+    assert ink[(across > 5) & middle].max() < 0.05             # and nowhere beside it
+    block = (np.abs(x + 25) < 8) & (np.abs(y - 25) < 8) & (across > 10)
+    assert ink[block].max() < 0.05                             # a broad form is the dabs', not a line's
+
+
+def test_thin_lines_leave_dots_and_faint_lines_to_the_dabs():
+    size = 96
+    rng = np.random.default_rng(3)
+    image = np.full((size, size), 0.8, dtype=np.float32)
+    for cy in range(8, size - 8, 12):                           # the gaps between a tree's leaves, 12 texels apart
+        for cx in range(8, size - 8, 12):
+            y, x = (cy, cx) + rng.integers(-2, 3, 2)
+            image[y - 1:y + 2, x - 1:x + 2] = 0.3
+    assert _thin(image).max() < 0.2
+    faint = np.full((size, size), 0.8, dtype=np.float32)
+    faint[:, 47:49] = 0.8 - 0.02                                 # a line fainter than FINE_START
+    assert _thin(faint).max() == 0.0

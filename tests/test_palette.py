@@ -47,6 +47,28 @@ def test_hues_keep_to_the_palette_colours_of_their_hue():
     assert hue_difference(to_oklab(red), lab_yellow) < 45
 
 
+def test_a_grey_of_the_picture_stays_a_muted_colour_a_coloured_one_a_strong_one():
+    from cp_stylize import palette as module
+
+    palette = _rgb(NIGHT)
+    # an overcast sky's grey and a strong blue, among a picture's tones
+    grey, blue = np.array([0.55, 0.55, 0.55]), np.array([0.1, 0.35, 0.9])
+    picture = np.vstack([np.tile(grey, (300, 1)), np.tile(blue, (300, 1)), np.linspace(0, 1, 600)[:, None] * [1, 1, 1]])
+    assert np.hypot(*to_oklab(blue)[1:]) > module.VIVID
+    muted = to_oklab(map_to_palette(picture, palette))
+    full = module.MUTED
+    try:
+        module.MUTED = 1.0
+        unmuted = to_oklab(map_to_palette(picture, palette))
+    finally:
+        module.MUTED = full
+    chroma, unmuted_chroma = np.hypot(muted[:, 1], muted[:, 2]), np.hypot(unmuted[:, 1], unmuted[:, 2])
+    assert unmuted_chroma[0] > 0.05                                    # the palette gives the grey a colour ...
+    assert abs(chroma[0] / unmuted_chroma[0] - module.MUTED) < 0.01     # ... at MUTED of its chroma
+    assert hue_difference(muted[0], unmuted[0]) < 1                    # and of its hue
+    assert abs(chroma[300] - unmuted_chroma[300]) < 1e-6               # a strong colour keeps all of it
+
+
 def test_fidelity_leads_back_to_the_picture():
     rng = np.random.default_rng(1)
     picture = rng.random((5000, 3))

@@ -687,7 +687,7 @@ UV_LIMIT = 1e9
 #: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).  Low
 #: enough that a dab's flanks shade softly under the key light and the colour reads through them; a
 #: raking light still shows every stroke.
-RELIEF_THICKNESS = 0.025
+RELIEF_THICKNESS = 0.035
 
 
 def relief_distance(obj, job):
