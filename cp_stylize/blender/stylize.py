@@ -684,9 +684,9 @@ def _material_for(obj, index, output, changes, copies):
 #: A UV coordinate this large is no place on a texture: Blender stores an infinite UV as the largest float.
 UV_LIMIT = 1e9
 
-#: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).  Low
-#: enough that a dab's flanks shade softly under the key light and the colour reads through them; a
-#: raking light still shows every stroke.
+#: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).  Deep
+#: enough that the strokes' ridges and furrows read under an ordinary key light, low enough that a dab's
+#: flanks shade softly and its colour reads through them; a raking light shows every stroke.
 RELIEF_THICKNESS = 0.035
 
 
