@@ -129,7 +129,7 @@ def _box(values, flat, size):
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
-             weights=None, field=None, source=None, recolour=None, detail=0.0):
+             weights=None, field=None, source=None, recolour=None, detail=0.0, level=None):
     """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
 
     Parameters
@@ -150,6 +150,8 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     field : ndarray, shape (N, 3), optional
         A direction field the strokes follow where its length is 1 (see
         :func:`cp_stylize.pipeline.stroke_field`).
+    level : ndarray, shape (N, 3), optional
+        Where strokes run where the picture has no structure (:func:`cp_stylize.strokes.level_field`).
     source : callable, optional
         ``source(faces, barys)``: the picture's colours at points of the mesh, at the texture's
         resolution (see :class:`Painting`).
@@ -169,7 +171,7 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     dabs = jitter = None
     if brush is not None and brush.strength > 0:
         dabs = place_dabs(mesh, band, values, brush, structure=lab, texel=texel, palette=palette,
-                          weights=weights, field=field, fields=fields)
+                          weights=weights, field=field, fields=fields, level=level)
         lab_palette = None if palette is None else to_oklab(np.asarray(palette, dtype=np.float64)[:, :3])
         jitter = (brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
     lines = None

@@ -42,7 +42,7 @@ from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
 from .parameters import DIRECTED_MODES
-from .strokes import Brush, form_field
+from .strokes import Brush, form_field, level_field
 from .sampling import texture_at
 
 __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
@@ -210,6 +210,26 @@ def sample_colours(band, colours, channels=3):
     if band.face is None:
         raise ValueError("the band was not built on a triangle mesh: it has no faces to read colours from")
     return colours_at(band.face, band.bary, colours, channels)
+
+
+def picture_level(mesh, colours):
+    """The picture's horizontal on each input face of ``mesh`` (F, 3): the unit 3-D direction along the u axis
+    of the last of a :class:`ColourInput`'s textures that colours the face, 0 where none does or its UVs
+    have no area."""
+    corners = mesh.vertices[mesh.input_faces]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    level = np.zeros((len(corners), 3))
+    for texture in colours.textures:
+        _, uvs, faces, _ = Texture(*texture)
+        uvs = np.asarray(uvs, dtype=np.float64)
+        d1, d2 = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
+        det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            along = (d2[:, 1, None] * e1 - d1[:, 1, None] * e2) / det[:, None]      # d(point)/du on the face
+            length = np.linalg.norm(along, axis=1)
+            ok = np.asarray(faces, dtype=bool) & np.isfinite(length) & (length > 0)
+        level[ok] = along[ok] / length[ok, None]
+    return level
 
 
 def seam_healing(mesh, colours):
@@ -403,8 +423,12 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         if settings.noise_mapping == "tone":
             def recolour(picture):
                 return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity)
+        level = None
+        if brush is not None and colours.textures:           # flat parts of a picture: level strokes
+            level = level_field(band, field, picture_level(mesh, colours))
         paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                          palette=settings.palette or None, weights=weights, field=field, recolour=recolour,
+                         level=level,
                          detail=settings.detail,
                          source=picture_at)
         report(0.9)

@@ -46,7 +46,7 @@ from .palette import check_palette, kept_chroma, palette_distance
 from .smoothing import GridGaussian, taper
 from .sparse import map_parallel
 
-__all__ = ["Brush", "Dabs", "Texels", "StrokeField", "Swirls", "form_field", "place_dabs", "paint", "jitter",
+__all__ = ["Brush", "Dabs", "Texels", "StrokeField", "Swirls", "form_field", "level_field", "place_dabs", "paint", "jitter",
            "LAYER_RATIO"]
 
 #: Each layer's dabs are this many times narrower than the layer's before.
@@ -267,14 +267,16 @@ class StrokeField:
             fields.append(cls(band, np.ascontiguousarray((q1 * c - q0 * s).T), confidence, strength))
         return fields
 
-    def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None):
+    def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None, level=None):
         """Unit directions (M, 3) at surface points (M, 3) with normals (M, 3): the structure's, blended
         by doubled angles with a given ``field`` (N, 3) of the band, whose length is the confidence in
         it (a field trusted at :data:`FALLBACK_TRUST` or less yields where the structure is sure), and,
         by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure over a
         wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes ring
         his stars) and, where that is weak too, with ``swirls``.  ``swirl`` is a number or one
-        for each point (M,)."""
+        for each point (M,).  Before the swirls, a ``level`` field (N, 3: unit, or 0 where it has no
+        direction; see :func:`level_field`) takes over where the structure is weak
+        (:data:`LEVEL_YIELD`)."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
         none = np.linalg.norm(direction, axis=1) < 0.5
@@ -293,6 +295,11 @@ class StrokeField:
             fallback = np.clip((1.0 - trust) / (1.0 - FALLBACK_TRUST), 0.0, 1.0)
             trust = np.where(trust > 0, 1.0 - fallback * np.sqrt(confidence), 0.0)
             direction = _blend(given, direction, trust, normals)
+        if level is not None:
+            flat = _tangent(np.asarray(level[nearest], dtype=np.float64), normals)
+            has = np.linalg.norm(flat, axis=1) > 0.5
+            flat[~has] = direction[~has]
+            direction = _blend(direction, flat, np.where(has, confidence**LEVEL_YIELD, 1.0), normals)
         swirl = np.broadcast_to(np.asarray(swirl, dtype=np.float64), (len(points),))
         if swirl.any() and (broad is not None or swirls is not None):
             if broad is not None:
@@ -312,6 +319,9 @@ class StrokeField:
 #: The confidence :func:`form_field` gives its meridians or parallels where the form has no direction:
 #: a strong structure of the picture turns strokes away from them (see :meth:`StrokeField.at`).
 FALLBACK_TRUST = 0.5
+#: Where the picture's structure is weak, strokes turn to a ``level`` field (:meth:`StrokeField.at`) by 1 less the
+#: confidence in the structure to this power: a faint grain of asphalt does not keep its whorls.
+LEVEL_YIELD = 1.0
 
 
 def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
@@ -333,6 +343,25 @@ def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
     unit[unsure] = fallback[unsure]
     blended = _blend(unit, fallback, np.where(unsure, 0.0, trust), normals)
     return blended * np.maximum(trust, FALLBACK_TRUST * reach)[:, None]
+
+
+def level_field(band, field, level):
+    """The picture's horizontal (N, 3) at the band's points where ``field`` (N, 3, or None; see
+    :func:`form_field`) has no direction, 0 elsewhere: ``level`` (F, 3) is the direction of each input
+    face along its picture's u axis (0 where no picture colours the face).
+
+    A painter lays flat ground in level strokes.  Where the picture has no structure of its own
+    (asphalt, a lawn, a wall), strokes turn to this field (:meth:`StrokeField.at`) instead of ringing
+    the nearest edges in whorls.  Each face's own picture gives it, so the field turns where the
+    picture does (across its UV seams) and nowhere else."""
+    from .tangent import surface_normals
+
+    normals = np.asarray(surface_normals(band), dtype=np.float64)
+    out = np.asarray(level, dtype=np.float64)[band.face]
+    has = np.linalg.norm(out, axis=1) > 0
+    if field is not None:
+        has &= np.linalg.norm(np.asarray(field, dtype=np.float64), axis=1) < 1e-3
+    return np.where(has[:, None], _tangent(out, normals), 0.0).astype(np.float32)
 
 
 def _unit(v):
@@ -372,7 +401,7 @@ def _spread(points, cell, rng):
 
 
 def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None, weights=None, field=None,
-               fields=None):
+               fields=None, level=None):
     """The dabs of a brush on a mesh, in painting order (a :class:`Dabs`).
 
     Parameters
@@ -391,6 +420,9 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         Colours a dab's colour is jittered towards (see :class:`Brush`).
     field : ndarray, shape (N, 3), optional
         A direction field the dabs follow where its length (the confidence in it) is 1.
+    level : ndarray, shape (N, 3), optional
+        Where the dabs run where the picture has no structure and ``field`` no direction
+        (:func:`level_field`).
     fields : list of StrokeField, optional
         The layers' fields, made before (:meth:`StrokeField.layers` of ``structure`` and the layers'
         dab lengths, :meth:`Brush.lengths`).
@@ -419,7 +451,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         pieces = mesh.piece[faces]
         near = lines._nearest(points)
         light = np.clip((structure[near, 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
-        direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad)
+        direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad, level)
         # where the picture has little structure, each dab turns a little its own way: a flat patch gets a
         # painter's varied strokes, not rings of parallel ones
         turn = WANDER * (1.0 - lines.confidence[near]) * (2.0 * rng.random(len(points)) - 1.0)
@@ -430,7 +462,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         length, width = length * size, width * size
 
         def along(at, normals, which):
-            return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad)
+            return lines.at(at, normals, brush.swirl * light[which], swirls, field, broad, level)
 
         ends = None
         if links > 1:

@@ -331,3 +331,48 @@ def test_a_loaded_brush_lays_its_second_colour_along_one_side_in_streaks(sphere)
     # the second colour's share changes across the stroke far more than along it
     x, z = texels.points[body, 0], texels.points[body, 2]
     assert abs(np.corrcoef(blue, x)[0, 1]) > 3 * abs(np.corrcoef(blue, z)[0, 1])
+
+
+def test_flat_parts_of_the_picture_take_level_strokes_and_its_structure_keeps_its_own(sphere):
+    from cp_stylize.strokes import level_field
+
+    mesh, band, _, _ = sphere
+    n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
+    meridians = np.array([0.0, 0.0, 1.0]) - n[:, 2:3] * n
+    level = np.zeros((mesh.n_input_faces, 3))
+    level[:] = [0.0, 0.0, 1.0]                          # the picture's horizontal: along the meridians
+    field = level_field(band, None, level)
+    equator = np.abs(band.cp[:, 2]) < 0.5
+    from cp_stylize.tangent import surface_normals
+
+    assert np.all(np.abs(np.einsum("ij,ij->i", field, surface_normals(band))) < 1e-5)     # in the tangent planes
+    assert np.median(np.abs(np.einsum("ij,ij->i", field[equator], meridians[equator])
+                            / np.linalg.norm(meridians[equator], axis=1))) > 0.99
+    # where a given field has a direction, the level leaves it be
+    given = np.zeros((band.size, 3))
+    given[band.cp[:, 0] > 0] = meridians[band.cp[:, 0] > 0]
+    kept = level_field(band, given, level)
+    assert np.all(kept[band.cp[:, 0] > 0] == 0) and np.any(kept[band.cp[:, 0] < -0.1] != 0)
+    brush = Brush(width=0.12, length=0.48, layers=1, chain=1, seed=3)
+    grey = np.full((band.size, 3), 0.4, dtype=np.float32)
+    flat = place_dabs(mesh, band, grey, brush, texel=0.01, level=field)           # no structure: level strokes
+    near = np.abs(flat.centre[:, 2]) < 0.5
+    assert np.median(np.abs(flat.direction[near, 2])) > 0.9
+    striped = _stripes(band, [0, 0, 1])                 # stripes round z: their structure runs along the parallels
+    sure = place_dabs(mesh, band, striped, brush, texel=0.01, level=field)
+    near = np.abs(sure.centre[:, 2]) < 0.5
+    assert np.median(np.abs(sure.direction[near, 2])) < 0.2
+
+
+def test_the_pictures_horizontal_is_its_u_axis_on_each_face():
+    from cp_stylize.pipeline import ColourInput, Texture, picture_level
+
+    vertices, faces, uvs = parametric_mesh(lambda u, v: np.stack([2 * u, v, 0 * u], axis=-1), 8, 4)
+    mesh = TriangleMesh(vertices, faces)
+    image = np.zeros((4, 4, 3), np.float32)
+    some = np.arange(len(faces)) % 2 == 0
+    level = picture_level(mesh, ColourInput(textures=[Texture(image, uvs, some)]))
+    np.testing.assert_allclose(np.abs(level[some, 0]), 1.0, atol=1e-9)     # u runs along x
+    assert np.all(level[~some] == 0)                                       # no picture there
+    turned = picture_level(mesh, ColourInput(textures=[Texture(image, uvs[:, :, ::-1], some)]))
+    np.testing.assert_allclose(np.abs(turned[some, 1]), 1.0, atol=1e-9)    # its u along y
