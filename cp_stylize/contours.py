@@ -119,7 +119,7 @@ def ink_colour(palette):
 #: Thin lines (:func:`thin_lines`) start where the picture is this much darker (OKLab lightness) than
 #: its surroundings, and are full at FINE_FULL.
 FINE_START = 0.03
-FINE_FULL = 0.09
+FINE_FULL = 0.06
 #: A thin feature is drawn only where it runs on as a line at least this many ``radius`` long (the
 #: largest opening of its depth by segments in :data:`FINE_ANGLES` directions): the gaps between a
 #: tree's leaves, dots too, are left to the dabs.
@@ -153,9 +153,7 @@ def thin_lines(lightness, flat, size, radius):
     depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
                              for segment in _segments(FINE_LENGTH * radius)])
     ink = np.clip((depth.ravel() - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
-    cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
-    ink = ndimage.grey_dilation(ink.reshape(size, size), footprint=cross)      # a line at least a brush's width
-    return ndimage.uniform_filter(ink, 3, mode="constant").ravel()[flat]       # anti-aliased over a texel
+    return ndimage.uniform_filter(ink.reshape(size, size), 3, mode="constant").ravel()[flat]   # anti-aliased
 
 
 def _segments(length):

@@ -67,7 +67,7 @@ CHROMA_KEEP = 2.0
 #: A picture's grey (asphalt, an overcast sky, concrete) keeps this share of the palette colour's
 #: chroma, and a colour of chroma VIVID (OKLab) or more all of it: what is grey in the picture reads as
 #: a muted colour in the painting, what is coloured as a strong one.
-MUTED = 0.5
+MUTED = 0.7
 VIVID = 0.08
 #: Colours mapped at once.
 _CHUNK = 1 << 16
