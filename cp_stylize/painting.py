@@ -29,9 +29,9 @@ GRAIN_REACH = 0.12
 #: painter outlines a form, and is sharp at the edge itself instead of a soft band across it.
 LINE_EDGE = 0.04
 #: The picture's thin dark lines (:func:`cp_stylize.contours.thin_lines`: a crane's jib, a mast, a fence
-#: post, too thin for the finest dab) are inked this many times as strongly as the contours (at most
-#: fully), with a closing disc of this share of the finest dabs' width, and at least 1.5 texels.
-THIN = 1.6
+#: post, too thin for the finest dab) are inked this many times the Detail setting (at most fully), with a
+#: closing disc of this share of the finest dabs' width, and at least 1.5 texels.
+THIN = 2.5
 THIN_RADIUS = 0.4
 
 
@@ -51,9 +51,9 @@ class Painting:
     finer than the band, shows in the paint (as a brush that picks up the
     wet paint under it): the difference between the recoloured picture's
     OKLab lightness and the band's colours', kept within
-    :data:`GRAIN_REACH`, is added to the painted lightness.  With
-    ``contours`` and the picture, the picture's thin dark lines are inked too
-    (:data:`THIN`), over the strokes and under the contours.
+    :data:`GRAIN_REACH`, is added to the painted lightness, and the
+    picture's thin dark lines, too thin for a dab, are inked over the strokes
+    (:data:`THIN`), under the contours.
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
@@ -89,10 +89,10 @@ class Painting:
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
-                if self.contours > 0:                   # the thin lines no dab can carry, drawn as a rigger would
+                    # the thin lines no dab can carry, drawn as a rigger would
                     finest = np.median(dabs.width[dabs.layer == dabs.layer.max()]) / np.median(where.lengths)
                     thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
-                    out = self._inked(out, min(1.0, THIN * self.contours) * thin)
+                    out = self._inked(out, min(1.0, THIN * self.detail) * thin)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself

@@ -89,7 +89,7 @@ RIM_AT = 0.55
 BODY = 0.5
 #: How deep the bristle marks in a dab are, as a share of its thickness, and how much lighter and darker they
 #: make its colour.
-GROOVE_DEPTH = 0.2
+GROOVE_DEPTH = 0.12
 STREAK = 0.07
 #: A dab's second colour (:attr:`Dabs.second`) meets its first over this share of its width, in streaks along
 #: the bristles this much of its half width deep.

@@ -687,7 +687,7 @@ UV_LIMIT = 1e9
 #: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).  Deep
 #: enough that the strokes' ridges and furrows read under an ordinary key light, low enough that a dab's
 #: flanks shade softly and its colour reads through them; a raking light shows every stroke.
-RELIEF_THICKNESS = 0.035
+RELIEF_THICKNESS = 0.05
 
 
 def relief_distance(obj, job):
