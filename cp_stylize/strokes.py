@@ -183,12 +183,17 @@ class Dabs:
     @property
     def heads(self):
         """Whether each dab begins its stroke (n,)."""
-        return np.ones(len(self), bool) if self.ends is None else (self.ends & HEAD_END) > 0
+        return self.stroke_ends(slice(None))[0]
 
     @property
     def tails(self):
         """Whether each dab ends its stroke (n,)."""
-        return np.ones(len(self), bool) if self.ends is None else (self.ends & TAIL_END) > 0
+        return self.stroke_ends(slice(None))[1]
+
+    def stroke_ends(self, which):
+        """Whether each of the dabs ``which`` (an index) begins and ends its stroke: two boolean arrays."""
+        ends = np.full(len(self), HEAD_END | TAIL_END, np.int8)[which] if self.ends is None else self.ends[which]
+        return (ends & HEAD_END) > 0, (ends & TAIL_END) > 0
 
     @property
     def depth(self):
@@ -473,11 +478,10 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         count = len(points)
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
-        pull = brush.jitter * (1.0 - brush.fidelity)
-        parts.append(Dabs(points, normals, direction, length, width, jitter(colour, draws, pull, brush.jitter, lab_palette),
+        first, second = loaded(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
+        parts.append(Dabs(points, normals, direction, length, width, first,
                           pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend,
-                          np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends,
-                          jitter(colour, _loaded(draws), pull, brush.jitter, lab_palette)))
+                          np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends, second))
     return Dabs.concatenate(parts)
 
 
@@ -575,9 +579,30 @@ def jitter(colours, draws, pull, shade, lab_palette):
     its lightness by up to ``shade`` times :data:`SHADE`: broken colour.  ``draws`` (n, 3) in [0, 1) pick the
     neighbour, the share of ``pull`` and the lightness, so that a dab keeps its jitter whatever
     colour it picks up."""
+    return _jittered(to_oklab(colours), draws, pull, shade, lab_palette)
+
+
+def loaded(colours, draws, pull, shade, lab_palette):
+    """The two sRGB colours (n, 3 each) a brush is loaded with from the colours (n, 3) it picks up: each
+    jittered (:func:`jitter`) by its own ``draws`` and by those of its second colour (:func:`_loaded`),
+    the palette's neighbours of each colour found once for both."""
     lab = to_oklab(colours)
+    near = _palette_neighbours(lab, pull, lab_palette)
+    return tuple(_jittered(lab.copy(), d, pull, shade, lab_palette, near) for d in (draws, _loaded(draws)))
+
+
+def _palette_neighbours(lab, pull, lab_palette):
+    """The three palette colours nearest to each OKLab colour (n, 3) (indices, (n, 3)), or None without a pull."""
     if pull > 0 and lab_palette is not None:
-        near = np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
+        return np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
+    return None
+
+
+def _jittered(lab, draws, pull, shade, lab_palette, near=None):
+    """:func:`jitter` of OKLab colours ``lab`` (n, 3, changed in place), given their palette neighbours ``near``
+    (found here when None)."""
+    near = _palette_neighbours(lab, pull, lab_palette) if near is None else near
+    if near is not None:
         pick = near[np.arange(len(lab)), np.minimum((draws[:, 0] * near.shape[1]).astype(np.int64), near.shape[1] - 1)]
         lab += (pull * draws[:, 1])[:, None] * (lab_palette[pick] - lab)
     lab[:, 0] += SHADE * shade * (2.0 * draws[:, 2] - 1.0)
@@ -720,10 +745,9 @@ def _under(colours, which, i, j, alpha, draws, lab, pull, shade, lab_palette):
     under = lab[j]
     ab = kept_chroma(np.column_stack([mean(under[:, 1]), mean(under[:, 2])]), mean(np.hypot(under[:, 1], under[:, 2])))
     picked = np.column_stack([mean(under[:, 0]), ab])
-    picked = from_oklab(picked[found])
     out = [np.array(c, dtype=np.float64) for c in colours]
-    for o, d in zip(out, (draws[found], _loaded(draws[found]))):
-        o[found] = jitter(picked, d, pull, shade, lab_palette)
+    for o, c in zip(out, loaded(from_oklab(picked[found]), draws[found], pull, shade, lab_palette)):
+        o[found] = c
     return out
 
 
@@ -873,7 +897,7 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
         return None
     width = dabs.width[i]
     phase = dabs.phase[i]
-    opens, closes = dabs.heads[i], dabs.tails[i]           # whether each pair's dab begins, ends its stroke
+    opens, closes = dabs.stroke_ends(i)                    # whether each pair's dab begins, ends its stroke
     # a dab within a stroke runs on from the one before it: its marks and rims go straight on into its head,
     # where a stroke's first dab bends them round its rounded head
     across = np.where(opens, across, across * _half_width(along))
