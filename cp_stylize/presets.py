@@ -224,23 +224,24 @@ class StylizeSettings:
     """
 
     mode: str = "ced"
-    T: float = 1e-4
-    spacing: float = 0.01
+    # the run's numbers default to the parameter table's (cp_stylize.parameters.RUN)
+    T: float = RUN["T"].default
+    spacing: float = RUN["spacing"].default
     params: Mapping = dataclasses.field(default_factory=dict)   # filter parameters set; the mode's defaults fill in
-    noise_fraction: float = 0.0
+    noise_fraction: float = RUN["noise_fraction"].default
     noise_mapping: str = "random"   # see NOISE_MAPPINGS
-    noise_spread: float = 0.1
-    detail: float = 1.0             # the texture's own detail laid back (cp_stylize.baking.lay_detail)
-    strokes: float = 0.0            # brush strokes over the result (cp_stylize.strokes)
-    stroke_length: float = 0.1
-    stroke_width: float = 0.03
-    stroke_layers: int = 3
-    stroke_chain: int = 3
-    stroke_jitter: float = 0.3
-    swirl: float = 0.0
-    fidelity: float = 0.0           # mapping "tone": how much of the picture's own colours (cp_stylize.palette)
-    contours: float = 0.0           # lines along the strong edges (cp_stylize.contours)
-    relief: float = 0.0             # the strokes' height, as a second image
+    noise_spread: float = RUN["noise_spread"].default
+    detail: float = RUN["detail"].default          # the texture's own detail laid back (baking.lay_detail)
+    strokes: float = RUN["strokes"].default        # brush strokes over the result (cp_stylize.strokes)
+    stroke_length: float = RUN["stroke_length"].default
+    stroke_width: float = RUN["stroke_width"].default
+    stroke_layers: int = RUN["stroke_layers"].default
+    stroke_chain: int = RUN["stroke_chain"].default
+    stroke_jitter: float = RUN["stroke_jitter"].default
+    swirl: float = RUN["swirl"].default
+    fidelity: float = RUN["fidelity"].default      # mapping "tone": how much of the picture's own colours
+    contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
+    relief: float = RUN["relief"].default          # the strokes' height, as a second image
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
     seed: int = 0                   # a whole number in SEED_LIMITS

@@ -6,6 +6,8 @@ import pytest
 from cp_stylize import atlas as atlas_module
 from cp_stylize.atlas import Atlas, uv_atlas, uv_problems
 
+from optional import needs_xatlas
+
 
 def mirrored(uv):
     """The right half of the sphere's UVs folded onto the left half."""
@@ -44,6 +46,7 @@ def test_a_new_atlas_can_be_forced(uv_sphere):
     assert not np.allclose(atlas.uvs, uvs)
 
 
+@needs_xatlas
 def test_an_unwrapper_outlives_its_unwrap_until_the_next(uv_sphere):
     # xatlas's destructor can lose the wake-up of a worker thread that has not settled yet and
     # then wait for it for ever: an unwrapper is destroyed only when the next unwrap starts

@@ -10,6 +10,8 @@ from cp_stylize import atlas as atlas_module
 from cp_stylize.atlas import uv_atlas, uv_problems
 from cp_stylize.mesh import TriangleMesh, parametric_mesh
 
+from optional import needs_xatlas
+
 
 def crumpled_sphere(n_u=160, noise=0.3, seed=0):
     """A UV sphere whose vertices move along the radius by ``noise`` of an edge: a scan's crumples."""
@@ -65,6 +67,7 @@ def test_a_badly_crumpled_scan_still_gets_charts_without_overlaps():
     assert uv_problems(mesh, atlas.uvs, 512) == [] and atlas.coverage.mean() > 0.2
 
 
+@needs_xatlas
 def test_xatlas_unwraps_small_meshes_and_charts_take_large_ones(torus, monkeypatch):
     mesh, _, _ = torus
     assert "xatlas unwrapped it" in uv_atlas(mesh, 64).reason

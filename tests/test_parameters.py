@@ -22,8 +22,21 @@ def test_every_filter_parameter_is_used_by_a_mode():
 
 
 def test_shipped_presets_lie_within_the_limits():
-    for name in builtin_presets():
-        load_preset(name)  # raises if a value is out of its limits
+    presets = builtin_presets()
+    assert {"starry_night", "van_gogh_form", "sunflower_vase", "denoise_eed"} <= set(presets)
+    for name in presets:
+        settings = load_preset(name)            # raises if a value is out of its limits; and they hold after
+        for parameter in RUN.values():
+            assert parameter.minimum <= getattr(settings, parameter.name) <= parameter.maximum, (name, parameter.name)
+        for parameter_name, value in settings.params.items():
+            parameter = FILTER_PARAMETERS[parameter_name]
+            assert parameter.minimum <= value <= parameter.maximum, (name, parameter_name)
+
+
+def test_settings_made_without_values_take_the_tables_defaults():
+    settings = StylizeSettings()
+    for parameter in RUN.values():
+        assert getattr(settings, parameter.name) == parameter.default, parameter.name
 
 
 @pytest.mark.parametrize("field, value, message", [
