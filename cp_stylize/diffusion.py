@@ -6,8 +6,8 @@
 - ``"perona_malik"``: ``u_t = div_S(g(|grad_S u|^2) grad_S u)``;
 - ``"eed"``: Weickert's edge-enhancing diffusion (eqs. (7)-(8));
 - ``"ced"``: Weickert's coherence-enhancing diffusion (eq. (9));
-- ``"beltrami"``: the colour Beltrami flow in the decoupled form of seed 001, eq. (90);
-- ``"flow"``: seed 004's flow texture along a direction field, with its contrast term.
+- ``"beltrami"``: the colour Beltrami flow in the decoupled form of Malladi and Ravve's eq. (90);
+- ``"flow"``: Diewald and Rumpf's flow texture along a direction field, with its contrast term.
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
@@ -17,6 +17,21 @@ tensor's smoothings are done (:class:`HeatSmoothing`, Algorithm 1 as written,
 for ``"reference"``; :class:`GridSmoothing`, grid Gaussians, for ``"fast"``, the
 default) and in ``lag`` (the fast scheme rebuilds G only when the values have
 changed; the reference at every step).  The sparse products run on all cores.
+
+References
+----------
+- E. Naden, T. März and C. B. Macdonald, "Anisotropic diffusion filtering of
+  images on curved surfaces", 2014 ("the paper": its sections and equations).
+- R. Malladi and I. Ravve, "Fast difference scheme for anisotropic Beltrami
+  smoothing and edge contrast enhancement of gray level and color images",
+  2001 (the Beltrami flow).
+- H. Biddle, "Nonlinear diffusion filtering on surfaces", MSc dissertation,
+  University of Oxford, 2011 (Perona-Malik with the closest point method).
+- U. Diewald and M. Rumpf, "Visualization of principal curvature directions
+  by anisotropic diffusion", 2000 (the flow texture).
+- C. Wu, J. Deng, F. Chen and X. Tai, "Scale-space analysis of discrete
+  filtering over arbitrary triangulated surfaces", 2009 (the scale-space
+  properties the tests check).
 """
 
 from __future__ import annotations
@@ -118,7 +133,7 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
         Perona-Malik, Beltrami and Flow: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
     beta, contrast : float, optional
-        Flow (seed 004): the largest diffusivity across the field,
+        Flow (Diewald and Rumpf): the largest diffusivity across the field,
         ``G = beta / (1 + |grad u_sigma|^2 / lambda^2)``, and the strength of
         the contrast term ``f(u) = (1 - |u|)(|u| - 1/2) u`` (values scaled to
         their initial range), at the rate ``4 contrast / T``: a mid-grey
@@ -126,7 +141,7 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         whatever the size of the object.
     ink : float, optional
         Flow: 0 (the default) diffuses ``u0``.  Above 0 the flow runs on
-        seed 004's initial data instead, white noise (seed :data:`INK_SEED`)
+        Diewald and Rumpf's initial data instead, white noise (seed :data:`INK_SEED`)
         smoothed over ``h^2 / 4``, and the darker half of that flow texture
         ``s`` (scaled to [0, 1]) darkens ``u0`` as strokes:
         ``u0 (1 - ink max(1 - 2 s, 0))``; ``u0`` keeps its tones.
@@ -150,8 +165,8 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
 
     Perona-Malik uses ``G = g I`` with ``g`` from central differences at the
     grid nodes, averaged to the cell faces (the consistent Morton-Mayers form,
-    thesis 002, section 3.3), not the face-gradient form.  Beltrami uses the
-    decoupled colour Beltrami flow of seed 001, eq. (90),
+    Biddle's dissertation, section 3.3), not the face-gradient form.  Beltrami uses the
+    decoupled colour Beltrami flow of Malladi and Ravve, eq. (90),
 
     .. math:: u_t = \\tfrac12 \\operatorname{div}(\\nabla u / g) + \\tfrac12 \\Delta u / g,
               \\quad g = \\det(I + J~ / \\lambda^2) = 1 + \\operatorname{tr} J~ / \\lambda^2
@@ -427,7 +442,7 @@ class _Flow:
     def reaction(self, lo, hi, rate):
         """The contrast term ``rate * f(v)`` of rows (C, N), with values scaled to ``[lo, hi]`` (C, 1).
 
-        ``f(u) = (1 - |u|)(|u| - 1/2) u`` (seed 004, its colour form); the
+        ``f(u) = (1 - |u|)(|u| - 1/2) u`` (Diewald and Rumpf, in its colour form); the
         step limit keeps ``rate * dt`` at most 1, where ``|f'| <= 1/2`` on [0, 1].
         """
         span = np.maximum(hi - lo, np.finfo(lo.dtype).tiny)
@@ -533,7 +548,7 @@ def flow_noise(band, seed=0, dtype=np.float64):
 
 
 def _inked(band, u0, *, ink, **kw):
-    """Flow with ``ink``: seed 004's flow texture of :func:`flow_noise` laid over ``u0`` as dark strokes:
+    """Flow with ``ink``: Diewald and Rumpf's flow texture of :func:`flow_noise` laid over ``u0`` as dark strokes:
     ``u0 (1 - ink max(1 - 2 s, 0))`` with ``s`` the texture scaled to [0, 1], so that only its darker
     half draws."""
     s = diffuse(band, flow_noise(band, INK_SEED, u0.dtype), mode="flow", ink=0.0, **kw)

@@ -122,7 +122,7 @@ FILTER_PARAMETERS = {p.name: p for p in (
                                 "(|grad u_sigma| / lambda)^2)", 0.0, 1.0, 0.05, precision=4, step=0.01),
     Parameter("contrast", "Contrast", "Flow: how far values are pushed towards black or white over the run "
                                       "(e-folds of a mid-grey; 0 for none)", 0.0, 100.0, 0.0, precision=2, step=10),
-    Parameter("ink", "Ink", "Flow: draw the flow texture of seed 004's noise as dark strokes over the texture, "
+    Parameter("ink", "Ink", "Flow: draw the flow texture of Diewald and Rumpf's noise as dark strokes over the texture, "
                             "which keeps its tones, this strong (0: the flow smooths the texture itself)",
               0.0, 1.0, 0.0, precision=2, step=10),
     Parameter("lambda_rel", "Edge Threshold", "Edge sensitivity lambda relative to the input's largest "

@@ -62,7 +62,7 @@ class DivergenceOperator:
     terms use compact differences, the mixed ones central differences, giving a
     19-point stencil whose rows sum to zero (constants are stationary).  With
     ``G = I`` it is the 7-point Laplacian; with ``G = g I`` it is the
-    Morton-Mayers scheme for Perona-Malik (thesis 002, section 3.3).
+    Morton-Mayers scheme for Perona-Malik (Biddle, "Nonlinear diffusion filtering on surfaces", 2011, section 3.3).
     The sparsity pattern is built once; each call fills in the coefficients.
     """
 

@@ -5,7 +5,7 @@
   parameters (Fig. 4: sigma = 1.2e-4, rho = 3.5e-4, lambda = 1e-3, Perona-Malik
   lambda = 1/13, T = 7e-4), as flattened (phi, theta) maps, with profiles across
   the stripes and PSNR against the clean stripes;
-- ``flow_torus.png``: seed 004's Fig. 1 as flattened maps: smoothed white
+- ``flow_torus.png``: Diewald and Rumpf's Fig. 1 as flattened maps: smoothed white
   noise drawn into a flow texture along the maximum (around the tube) and the
   minimum (around the axis) curvature directions, computed from the band;
 - ``fig5_sphere.png``: a fingerprint-like ridge pattern with noise on the unit
@@ -172,7 +172,7 @@ def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
     curvature = principal_curvatures(band)
     log(f"flow: torus band at h = {h}: {band.size:,} points, principal directions "
         f"({time.perf_counter() - start:.1f} s)")
-    noise = flow_noise(band)          # seed 004's initial data: white noise, briefly smoothed
+    noise = flow_noise(band)          # Diewald and Rumpf's initial data: white noise, briefly smoothed
     values, captions = [noise], ["NOISE"]
     for which, name in (("max", "MAXIMUM"), ("min", "MINIMUM")):
         start = time.perf_counter()
@@ -181,7 +181,7 @@ def fig_flow(out_dir, h=0.0125, log=print, scheme="fast"):
         log(f"  flow along {which} curvature {time.perf_counter() - start:7.1f} s")
         captions.append(f"ALONG THE {name} CURVATURE")
     values = [(v - v.min()) / (v.max() - v.min()) for v in values]
-    # seed 004's Fig. 1: the torus seen from above, and its parameter domain (angle around the axis across)
+    # Diewald and Rumpf's Fig. 1: the torus seen from above, and its parameter domain (angle around the axis across)
     views = [figures.surface_view(band, v, size=(330, 500), extent=1.5) for v in values]
     maps = [flat_map(band, v, 200, 500)[..., 0] for v in values]
     image = figures.grid([figures.panel(m, c) for m, c in zip(views, captions)]

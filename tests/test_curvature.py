@@ -1,4 +1,4 @@
-"""Principal curvatures and directions from the closest point representation (seed 004's fields)."""
+"""Principal curvatures and directions from the closest point representation (the fields of Diewald and Rumpf's flow textures)."""
 
 import numpy as np
 import pytest

@@ -112,7 +112,7 @@ def test_ced_raises_coherence_of_a_ridge_pattern(scheme):
     assert after > before + 0.1
 
 
-# -- scale-space properties (seed 003, section 5) ---------------------------------------------
+# -- scale-space properties (Wu, Deng, Chen and Tai, section 5) ---------------------------------------------
 
 H = 0.1
 FEW_STEPS = 10 * 0.15 * H**2
@@ -455,7 +455,7 @@ def test_the_reference_scheme_gives_the_recorded_output():
     print(f"\nexact comparison: {exact}")
 
 
-# -- flow textures along a direction field (seed 004) ------------------------------------------
+# -- flow textures along a direction field (Diewald and Rumpf) ------------------------------------------
 
 
 @pytest.fixture(scope="module")
@@ -468,7 +468,7 @@ def torus_noise():
     x, y, _ = band.cp.T
     parallels = np.column_stack([-y, x, np.zeros_like(x)]) / np.hypot(x, y)[:, None]
     meridians = np.cross(torus.normal(band.cp), parallels)
-    # seed 004's initial data: white noise, briefly smoothed
+    # Diewald and Rumpf's initial data: white noise, briefly smoothed
     noise = heat(band, band.extend(np.random.default_rng(0).uniform(0, 1, band.size)), 0.5 * h * h)
     return band, noise, parallels, meridians
 
