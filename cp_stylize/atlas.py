@@ -65,7 +65,8 @@ class Atlas:
     size : int
         The image is ``size`` x ``size`` texels.
     generated : bool
-        True when xatlas made ``uvs``; False when they are the mesh's own.
+        True when ``uvs`` are new (unwrapped by xatlas, or charts projected along the axes); False when
+        they are the mesh's own.
     reason : str
         Why these UVs: that the given ones are usable, or why they were not used.
     texels : ndarray of int64, shape (M,)

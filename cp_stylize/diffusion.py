@@ -11,7 +11,7 @@
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
-and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One flow (:class:`_Flow`)
+and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One engine (:class:`_StepOperators`)
 takes these steps for both schemes; they differ only in how the structure
 tensor's smoothings are done (:class:`HeatSmoothing`, Algorithm 1 as written,
 for ``"reference"``; :class:`GridSmoothing`, grid Gaussians, for ``"fast"``, the
@@ -239,11 +239,11 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
     lo, hi = rows.min(axis=1, keepdims=True), rows.max(axis=1, keepdims=True)
     smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
-    flow = _Flow(band, rows.dtype, mode, params, normals, smoothing, field)
-    flow.normalise(rows)
+    operators = _StepOperators(band, rows.dtype, mode, params, normals, smoothing, field)
+    operators.normalise(rows)
     reaction = None
     if mode == "flow" and params["contrast"] > 0:
-        reaction = flow.reaction(lo, hi, 4.0 * params["contrast"] / T)
+        reaction = operators.reaction(lo, hi, 4.0 * params["contrast"] / T)
     lag = 0.0 if scheme == "reference" else lag
     inner = band.inner
     span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
@@ -251,10 +251,10 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
     for step in range(n_steps):
         if built_from is None or _rms_change(rows, built_from, inner, span) > lag:
             report = None if progress is None else (lambda f, s=step: progress((s + 0.9 * f) / n_steps))
-            A, extra = flow.operator(rows, report)
+            A, extra = operators.operator(rows, report)
             built_from = rows[:, inner].copy() if lag > 0 else None
-        stable = flow.stable_step if reaction is None else min(flow.stable_step, flow.reaction_step)
-        _step(rows, A, extra, flow.laplacian, flow.E, tau, stable, clamp and (lo, hi), reaction)
+        stable = operators.stable_step if reaction is None else min(operators.stable_step, operators.reaction_step)
+        _step(rows, A, extra, operators.laplacian, operators.E, tau, stable, clamp and (lo, hi), reaction)
         _check(rows, step, n_steps, progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
 
@@ -363,7 +363,7 @@ class GridSmoothing:
         return float(np.sqrt(float(self.invariants(self.presmoothed(rows), False)[0].max())))
 
 
-class _Flow:
+class _StepOperators:
     """Builds the step operator ``A(G)`` of one mode from the current values (Algorithm 1, steps 2-8).
 
     The structure tensor's smoothings come from ``smoothing``

@@ -266,13 +266,13 @@ def operator_builds(monkeypatch):
     from cp_stylize import diffusion
 
     builds = []
-    operator = diffusion._Flow.operator
+    operator = diffusion._StepOperators.operator
 
     def counted(self, rows, progress=None):
         builds.append(rows.copy())
         return operator(self, rows, progress)
 
-    monkeypatch.setattr(diffusion._Flow, "operator", counted)
+    monkeypatch.setattr(diffusion._StepOperators, "operator", counted)
     return builds
 
 
