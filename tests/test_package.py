@@ -1,8 +1,13 @@
 """Package-level facts: the core stands without Blender, the public API is there."""
 
+import importlib.util
 import os
+import shutil
 import subprocess
 import sys
+import tomllib
+
+import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -32,3 +37,35 @@ def test_public_api():
 
     for name in ("Sphere", "Torus", "Band", "heat", "band_width"):
         assert name in cp_stylize.__all__ and hasattr(cp_stylize, name)
+
+
+def test_the_library_installs_with_pip_and_its_version_is_the_extensions(tmp_path):
+    for module, why in (("setuptools", "pip builds the library with setuptools (pip install setuptools)"),
+                        ("wheel", "pip builds the library into a wheel with it (pip install -r requirements.txt)")):
+        if importlib.util.find_spec(module) is None:          # found, not imported: pip imports it, in its own process
+            pytest.skip(why)
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as fh:
+        project = tomllib.load(fh)["project"]
+    with open(os.path.join(ROOT, "blender_manifest.toml"), "rb") as fh:
+        assert project["version"] == tomllib.load(fh)["version"]
+    source = tmp_path / "source"                 # a copy: the build leaves nothing in the checkout
+    shutil.copytree(os.path.join(ROOT, "cp_stylize"), source / "cp_stylize",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(os.path.join(ROOT, name), source / name)
+    target = tmp_path / "site"
+    proc = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+                           "--disable-pip-version-check", "--target", str(target), str(source)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert (target / "cp_stylize" / "diffusion.py").is_file() and (target / "cp_stylize" / "blender").is_dir()
+    assert not (target / "cp_stylize_dev").exists() and not (target / "tests").exists()
+    code = ("import cp_stylize, numpy as np\n"
+            "band = cp_stylize.Band.build(cp_stylize.Sphere(1.0), 0.1)\n"
+            "u = cp_stylize.heat(band, np.ones(band.size), 1e-3)\n"
+            "print(cp_stylize.__file__, float(np.abs(u - 1).max()))\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(target)})
+    assert proc.returncode == 0, proc.stderr
+    where, error = proc.stdout.splitlines()[-1].split()      # the last line: what went before is the build's
+    assert where.startswith(str(target)) and float(error) < 1e-5       # the installed core, and it runs
