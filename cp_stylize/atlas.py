@@ -32,9 +32,10 @@ import numpy as np
 
 from .arrays import check_uvs, count, expand_runs, split_counts
 from .charts import projected_charts
+from .mesh import check_mesh
 from .sparse import map_parallel, workers
 
-__all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems", "check_mesh"]
+__all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems"]
 
 #: Texel centres rasterised at once.
 _TEXELS = 1 << 20
@@ -92,14 +93,6 @@ class Atlas:
         mask = np.zeros(self.size * self.size, dtype=bool)
         mask[self.texels] = True
         return mask.reshape(self.size, self.size)
-
-
-def check_mesh(mesh):
-    """``mesh`` if it is a :class:`~cp_stylize.mesh.TriangleMesh` (or alike); TypeError otherwise."""
-    for name in ("faces", "face_index", "n_input_faces", "vertices"):
-        if not hasattr(mesh, name):
-            raise TypeError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
-    return mesh
 
 
 def _check_size(size):

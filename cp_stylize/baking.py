@@ -21,8 +21,9 @@ import scipy.sparse as sp
 from scipy import ndimage
 
 from .arrays import count
-from .atlas import Atlas, check_mesh
+from .atlas import Atlas
 from .band import apply
+from .mesh import check_mesh
 from .sparse import SplitMatrix, map_parallel, workers
 from .texture import texel_centres
 

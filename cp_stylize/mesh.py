@@ -25,7 +25,7 @@ import numpy as np
 from .arrays import as_points, count, unit_rows
 from .nearest import TriangleSearch
 
-__all__ = ["TriangleMesh", "parametric_mesh", "surface_faces"]
+__all__ = ["TriangleMesh", "parametric_mesh", "surface_faces", "check_mesh"]
 
 
 #: A face whose height is at most this share of its longest edge is degenerate (see :func:`surface_faces`).
@@ -389,3 +389,11 @@ def parametric_mesh(point, n_u, n_v, *, periodic_u=False, periodic_v=False):
     faces = np.stack([np.column_stack([corner[c][0] for c in t3]) for t3 in tri], axis=1).reshape(-1, 3)
     uvs = np.stack([np.stack([corner[c][1] for c in t3], axis=1) for t3 in tri], axis=1).reshape(-1, 3, 2)
     return vertices, faces.astype(np.int64), uvs
+
+
+def check_mesh(mesh):
+    """``mesh`` if it is a :class:`~cp_stylize.mesh.TriangleMesh` (or alike); TypeError otherwise."""
+    for name in ("faces", "face_index", "n_input_faces", "vertices"):
+        if not hasattr(mesh, name):
+            raise TypeError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
+    return mesh
