@@ -27,3 +27,17 @@ def test_writing_replaces_only_the_block():
     assert docs.written(text) == f"before\n{docs.block()}\nafter\n"
     with pytest.raises(ValueError, match="markers once"):
         docs.written("no markers")
+
+
+@pytest.mark.parametrize("name", ["cp_stylize.diffusion.diffuse", "cp_stylize.baking.bake_to_atlas",
+                                  "cp_stylize.pipeline.stylize"])
+def test_the_readme_gives_the_signatures_of_the_main_functions_as_they_are(name):
+    import importlib
+    import inspect
+    import re
+
+    module, function = name.rsplit(".", 1)
+    signature = str(inspect.signature(getattr(importlib.import_module(module), function))).replace("'", '"')
+    with open(docs.README, encoding="utf-8") as f:
+        text = re.sub(r"\s+", " ", f.read())          # the README wraps a signature over its lines
+    assert f"{function}{signature}" in text, f"README.md gives an older signature of {name}: {function}{signature}"
