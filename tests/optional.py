@@ -1,15 +1,14 @@
 """Markers for tests that need an optional dependency: without it they skip, saying why."""
 
+import importlib.util
+
 import pytest
 
 
 def installed(module):
-    """Whether ``module`` imports here."""
-    try:
-        __import__(module)
-    except ImportError:
-        return False
-    return True
+    """Whether ``module`` can be imported here: found, not imported (as cp_stylize.atlas decides about xatlas;
+    importing setuptools after bpy, for one, fails)."""
+    return importlib.util.find_spec(module) is not None
 
 
 #: xatlas is optional (the add-on's zips ship it where it has wheels); without it, charts make new UV maps.

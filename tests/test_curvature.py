@@ -1,4 +1,5 @@
-"""Principal curvatures and directions from the closest point representation (the fields of Diewald and Rumpf's flow textures)."""
+"""Principal curvatures and directions from the closest point representation (the fields that Diewald and
+Rumpf's flow textures follow)."""
 
 import numpy as np
 import pytest

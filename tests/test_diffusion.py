@@ -112,7 +112,7 @@ def test_ced_raises_coherence_of_a_ridge_pattern(scheme):
     assert after > before + 0.1
 
 
-# -- scale-space properties (Wu, Deng, Chen and Tai, section 5) ---------------------------------------------
+# -- scale-space properties (Wu, Deng, Chen and Tai, section 5) ------------------------------
 
 H = 0.1
 FEW_STEPS = 10 * 0.15 * H**2
@@ -455,7 +455,7 @@ def test_the_reference_scheme_gives_the_recorded_output():
     print(f"\nexact comparison: {exact}")
 
 
-# -- flow textures along a direction field (Diewald and Rumpf) ------------------------------------------
+# -- flow textures along a direction field (Diewald and Rumpf) -------------------------------
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,5 @@
 """Package-level facts: the core stands without Blender, the public API is there."""
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -8,6 +7,8 @@ import sys
 import tomllib
 
 import pytest
+
+from optional import installed
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -42,7 +43,7 @@ def test_public_api():
 def test_the_library_installs_with_pip_and_its_version_is_the_extensions(tmp_path):
     for module, why in (("setuptools", "pip builds the library with setuptools (pip install setuptools)"),
                         ("wheel", "pip builds the library into a wheel with it (pip install -r requirements.txt)")):
-        if importlib.util.find_spec(module) is None:          # found, not imported: pip imports it, in its own process
+        if not installed(module):                            # pip imports it, in its own process
             pytest.skip(why)
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as fh:
         project = tomllib.load(fh)["project"]

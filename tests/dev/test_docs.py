@@ -1,4 +1,8 @@
-"""The README's parameter tables are the ones cp_stylize/parameters.py gives."""
+"""The README's parameter tables are the ones cp_stylize/parameters.py gives, and its signatures the code's."""
+
+import importlib
+import inspect
+import re
 
 import pytest
 
@@ -32,10 +36,6 @@ def test_writing_replaces_only_the_block():
 @pytest.mark.parametrize("name", ["cp_stylize.diffusion.diffuse", "cp_stylize.baking.bake_to_atlas",
                                   "cp_stylize.pipeline.stylize"])
 def test_the_readme_gives_the_signatures_of_the_main_functions_as_they_are(name):
-    import importlib
-    import inspect
-    import re
-
     module, function = name.rsplit(".", 1)
     signature = str(inspect.signature(getattr(importlib.import_module(module), function))).replace("'", '"')
     with open(docs.README, encoding="utf-8") as f:
