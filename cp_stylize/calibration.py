@@ -1,6 +1,6 @@
 """How fast this computer runs the core, next to the one the run estimate was measured on.
 
-The time constants of :func:`cp_stylize.pipeline.estimate` were measured on a
+The time constants of :func:`cp_stylize.estimate.estimate` were measured on a
 quiet two-core machine.  :func:`measure` times a short job of the same kinds of
 work (sparse products on arrays larger than a processor's cache, as the
 extension and the diffusion steps make, sorting and gathers, as the closest

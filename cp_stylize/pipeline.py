@@ -23,17 +23,16 @@ from __future__ import annotations
 
 import dataclasses
 import time
-import typing
 
 import numpy as np
 
-from .atlas import XATLAS_FACES, UnusableUVs, uv_atlas
+from .atlas import UnusableUVs, uv_atlas
 from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
 from .cache import RunCache, digest
 from .colours import ColourHull, distinct_colours
 from .contours import ink_colour
 from .curvature import principal_curvatures
-from .band import Band, estimate_band_size
+from .band import Band
 from .diffusion import diffuse
 from .extent import diameter
 from .mesh import TriangleMesh, surface_faces
@@ -43,11 +42,11 @@ from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
 from .parameters import DIRECTED_MODES
 from .strokes import Brush, form_field, level_field
-from .sampling import texture_at
+from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
 
-__all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "RunEstimate", "UnusableUVs", "normalisation",
-           "stencil_for", "stroke_field", "sample_directions", "sample_colours", "colours_at", "input_colours",
-           "stylize", "estimate", "estimate_run"]
+# ColourInput and Texture (cp_stylize.sampling) are named here too: a run's colours are given as them
+__all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "UnusableUVs", "normalisation",
+           "stencil_for", "stroke_field", "sample_directions", "input_colours", "stylize"]
 
 #: Every object is scaled so that its diameter (the greatest distance between two points of its surface)
 #: is this long: the paper's scale, at which a sphere has radius 1.
@@ -155,45 +154,6 @@ def stencil_for(mode):
     return "laplacian" if mode == "gaussian" else "anisotropic"
 
 
-class Texture(typing.NamedTuple):
-    """An image read through per-corner UVs on some faces of a mesh (see :class:`ColourInput`)."""
-
-    image: np.ndarray              # (H, W, C), row 0 at the bottom
-    uvs: np.ndarray                # (F, 3, 2)
-    faces: np.ndarray              # (F,) bool: the faces it colours
-    wrap: tuple = ("repeat", "repeat")  # beyond [0, 1]: see cp_stylize.texture.bilinear
-
-
-@dataclasses.dataclass
-class ColourInput:
-    """Colour on a mesh's surface, sRGB-encoded values in [0, 1].
-
-    Attributes
-    ----------
-    corner_colours : ndarray (F, 3, C) or None
-        Colours at the corners of each face, interpolated across the face
-        (a colour attribute, or a material's flat base colour).
-    textures : list of :class:`Texture` or (image, uvs, faces) tuples
-        Images (H, W, C), row 0 at the bottom, each read through per-corner UVs
-        (F, 3, 2) on the faces where the boolean mask ``faces`` (F,) is set,
-        with its ``wrap`` beyond [0, 1] (default: repeat).  Textures win over
-        ``corner_colours``.
-    """
-
-    corner_colours: np.ndarray | None = None
-    textures: list = dataclasses.field(default_factory=list)
-
-    @classmethod
-    def constant(cls, n_faces, colour):
-        colour = np.asarray(colour, dtype=np.float32)
-        return cls(corner_colours=np.broadcast_to(colour, (n_faces, 3, len(colour))).copy())
-
-    @property
-    def image_pixels(self):
-        """The pixels of the textures' images, for :func:`estimate`."""
-        return sum(int(np.prod(np.shape(Texture(*t).image)[:2])) for t in self.textures)
-
-
 @dataclasses.dataclass
 class StylizeResult:
     image: np.ndarray        # (size, size, C), row 0 at the bottom
@@ -205,37 +165,10 @@ class StylizeResult:
     height: np.ndarray | None = None   # (size, size) the paint's height (settings.relief > 0), row 0 at the bottom
 
 
-def sample_colours(band, colours, channels=3):
-    """Colour (N, channels) at the band's closest points from a :class:`ColourInput`."""
-    if band.face is None:
-        raise ValueError("the band was not built on a triangle mesh: it has no faces to read colours from")
-    return colours_at(band.face, band.bary, colours, channels)
-
-
-def picture_level(mesh, colours):
-    """The picture's horizontal on each input face of ``mesh`` (F, 3): the unit 3-D direction along the u axis
-    of the last of a :class:`ColourInput`'s textures that colours the face, 0 where none does or its UVs
-    have no area."""
-    corners = mesh.vertices[mesh.input_faces]
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    level = np.zeros((len(corners), 3))
-    for texture in colours.textures:
-        _, uvs, faces, _ = Texture(*texture)
-        uvs = np.asarray(uvs, dtype=np.float64)
-        d1, d2 = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
-        det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            along = (d2[:, 1, None] * e1 - d1[:, 1, None] * e2) / det[:, None]      # d(point)/du on the face
-            length = np.linalg.norm(along, axis=1)
-            ok = np.asarray(faces, dtype=bool) & np.isfinite(length) & (length > 0)
-        level[ok] = along[ok] / length[ok, None]
-    return level
-
-
 def seam_healing(mesh, colours):
     """The :class:`~cp_stylize.seams.SeamHealing` of a :class:`ColourInput`'s textures on ``mesh`` (normalised),
     or None where they have no UV seams."""
-    parts = [seam_edges(mesh.welded_faces, Texture(*t).uvs, Texture(*t).faces) for t in colours.textures]
+    parts = [seam_edges(mesh.welded_faces, t.uvs, t.faces) for t in colours.texture_list]
     if not parts or not sum(len(part[0]) for part in parts):
         return None
     seams = tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
@@ -245,8 +178,7 @@ def seam_healing(mesh, colours):
 def colour_digest(colours):
     """A digest of a :class:`ColourInput`'s arrays (see :func:`cp_stylize.cache.digest`)."""
     parts = [colours.corner_colours]
-    for texture in colours.textures:
-        texture = Texture(*texture)
+    for texture in colours.texture_list:
         parts += [texture.image, texture.uvs, texture.faces, *texture.wrap]
     return digest(*parts)
 
@@ -257,20 +189,6 @@ def read_only(array):
     return array
 
 
-def colours_at(face, bary, colours, channels=3):
-    """Colour (M, channels) of a :class:`ColourInput` at points of its mesh: input faces (M,), barycentrics (M, 3)."""
-    values = np.zeros((len(face), channels), dtype=np.float32)
-    if colours.corner_colours is not None:
-        corners = np.asarray(colours.corner_colours, dtype=np.float32)[face, :, :channels]
-        values[:, :corners.shape[2]] = np.einsum("nk,nkc->nc", np.asarray(bary, dtype=np.float32), corners)
-    for texture in colours.textures:
-        image, uvs, faces, wrap = Texture(*texture)
-        chosen = np.asarray(faces, dtype=bool)[face]
-        sampled = texture_at(face[chosen], bary[chosen], uvs, np.asarray(image, dtype=np.float32), wrap=wrap)
-        values[chosen, :min(channels, sampled.shape[1])] = sampled[:, :channels]
-    return values
-
-
 def input_colours(colours, settings, channels=3):
     """The colours a run is given (M, channels): its textures' texels, its corner colours and the palette.
 
@@ -279,8 +197,8 @@ def input_colours(colours, settings, channels=3):
     which have the hull of its texels, so a large image costs no copy of its pixels.
     """
     found = []
-    for texture in colours.textures:
-        image = np.asarray(Texture(*texture).image)
+    for texture in colours.texture_list:
+        image = np.asarray(texture.image)
         image = image[..., :channels] if image.ndim == 3 else image[..., None]
         distinct = distinct_colours(image).astype(np.float32)
         found.append(np.pad(distinct, ((0, 0), (0, channels - distinct.shape[1]))))
@@ -295,8 +213,8 @@ def input_colours(colours, settings, channels=3):
         found.append(np.zeros((1, channels), np.float32) if ink is None else
                      np.pad(np.float32(ink)[None, :channels], ((0, 0), (0, max(0, channels - 3)))))
     covered = colours.corner_colours is not None or (
-        bool(colours.textures) and np.all(np.any([np.asarray(Texture(*t).faces, bool) for t in colours.textures], axis=0)))
-    clipped = any("clip" in Texture(*t).wrap for t in colours.textures)
+        bool(colours.textures) and np.all(np.any([np.asarray(t.faces, bool) for t in colours.texture_list], axis=0)))
+    clipped = any("clip" in t.wrap for t in colours.texture_list)
     if not covered or clipped:
         found.append(np.zeros((1, channels), np.float32))      # faces that nothing colours, and CLIP, read black
     return np.concatenate(found)
@@ -448,106 +366,3 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
                          spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings,
                          height=height if settings.relief > 0 else None)
-
-
-#: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
-#: the README's Performance section (fast scheme): seconds per band point to build the band and
-#: the scheme's operators and to bake in and out ...
-SECONDS_SETUP_PER_POINT = {"gaussian": 2.7e-6, "other": 3.6e-6}
-#: ... per band point and colour channel for one step (an extension and a stencil product) ...
-SECONDS_STEP_PER_POINT = 1.8e-8
-#: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
-SECONDS_TENSOR_PER_POINT = 1.35e-7
-#: ... per triangle for the closest point search (it meets every triangle near each block) ...
-SECONDS_PER_TRIANGLE = 2e-5
-#: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
-#: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
-SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 1.6e-4, "charts": 3e-6}
-#: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
-SECONDS_PER_TEXEL = 8e-7
-#: ... per pixel of the input images (read out, their colours' hull, their detail) ...
-SECONDS_PER_IMAGE_PIXEL = 1e-7
-#: ... and once a run (the colour hull, the normalisation, small set-ups).
-SECONDS_PER_RUN = 0.9
-
-#: Brush strokes: seconds per baked texel and layer of strokes, per band point and layer for their
-#: stroke fields, and the share of an atlas's texels that are baked (islands and margin).
-SECONDS_STROKES_PER_TEXEL = 2.5e-6
-SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
-BAKED_SHARE = 0.6
-
-#: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
-#: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
-BYTES_PER_BAND_POINT = 1650
-#: ... a triangle (the closest point search's candidate pairs), a texel of the atlas ...
-BYTES_PER_TRIANGLE = 500
-BYTES_PER_TEXEL = 128
-#: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
-#: indices on the baked share and the margin) ...
-BYTES_KEPT_PER_TEXEL = 680
-#: ... a pixel of the input images (their float RGBA pixels read out, and the host's own buffer of
-#: them: 16 bytes each for a float image in Blender) ...
-BYTES_PER_IMAGE_PIXEL = 32
-#: ... and the libraries a Python process with NumPy and SciPy holds.
-BYTES_PER_RUN = 200 * 2**20
-
-
-def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False, image_pixels=0, speed=1.0):
-    """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
-    ``n_points`` band points around a mesh of ``triangles``; ``keep``: with a :class:`RunCache`, which
-    also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made;
-    ``image_pixels``: the pixels of the input images; ``speed``: how many times longer than the
-    machine the constants were measured on this computer takes (:mod:`cp_stylize.calibration`)."""
-    from .diffusion import PAPER_CFL
-    from .heat_flow import time_steps
-
-    steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing ** 2)
-    per_point = SECONDS_SETUP_PER_POINT["gaussian" if settings.mode == "gaussian" else "other"]
-    per_point += steps * channels * SECONDS_STEP_PER_POINT
-    if settings.mode != "gaussian":
-        per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
-    texels = settings.image_size ** 2
-    seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
-    seconds += image_pixels * SECONDS_PER_IMAGE_PIXEL
-    if unwrap:
-        seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
-    if settings.strokes > 0:
-        layers = settings.stroke_layers
-        seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
-    nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
-    nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
-    if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
-        nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
-    return seconds * speed, nbytes
-
-
-@dataclasses.dataclass(frozen=True)
-class RunEstimate:
-    """What a run on a mesh will take, before it runs."""
-
-    spacing: float       # grid spacing in the mesh's own units
-    band_points: int
-    bytes: int
-    seconds: float
-
-
-def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False, image_pixels=0, speed=None):
-    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings``.
-
-    ``keep``: with a cache; ``unwrap``: the mesh has no UVs, so a new atlas is
-    made; ``image_pixels``: the pixels of the input images
-    (:attr:`ColourInput.image_pixels`); ``speed``: the time factor of this
-    computer (None: :func:`cp_stylize.calibration.machine_speed`, measured
-    once a process, well under a second).
-    """
-    centre, scale = normalisation(vertices, faces)
-    vertices = np.asarray(vertices, dtype=np.float64)
-    a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
-    area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
-    n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
-    if speed is None:
-        from .calibration import machine_speed
-
-        speed = machine_speed()
-    seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap, image_pixels, speed)
-    return RunEstimate(settings.spacing / scale, n, nbytes, seconds)

@@ -206,7 +206,8 @@ def run_scale(case, data, base=None):
     from cp_stylize.cache import RunCache
     from cp_stylize.diffusion import PAPER_CFL
     from cp_stylize.heat_flow import time_steps
-    from cp_stylize.pipeline import estimate, stencil_for, stylize
+    from cp_stylize.estimate import estimate
+    from cp_stylize.pipeline import stencil_for, stylize
     from cp_stylize.presets import load_preset
 
     spec = SCALE[case]

@@ -264,7 +264,8 @@ def _dabs(subject, settings, result):
     from cp_stylize.baking import atlas_points, texel_lengths
     from cp_stylize.mesh import TriangleMesh
     from cp_stylize.palette import map_to_palette
-    from cp_stylize.pipeline import ColourInput, Texture, normalisation, sample_colours, stencil_for
+    from cp_stylize.pipeline import ColourInput, Texture, normalisation, stencil_for
+    from cp_stylize.sampling import sample_colours
     from cp_stylize.strokes import Brush, Texels, place_dabs
 
     vertices, faces, uvs, image, wrap = subject

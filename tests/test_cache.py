@@ -6,7 +6,8 @@ import pytest
 from cp_stylize import Torus
 from cp_stylize.cache import RunCache, digest
 from cp_stylize.mesh import parametric_mesh
-from cp_stylize.pipeline import ColourInput, Texture, estimate_run, stylize
+from cp_stylize.estimate import estimate_run
+from cp_stylize.pipeline import ColourInput, Texture, stylize
 from cp_stylize.presets import load_preset
 
 #: every part a run on a textured mesh with detail builds before its filter

@@ -71,7 +71,7 @@ def test_the_job_is_measured_in_processor_time():
 
 
 def test_the_estimate_scales_its_time_by_the_factor():
-    from cp_stylize.pipeline import estimate_run
+    from cp_stylize.estimate import estimate_run
     from cp_stylize.presets import StylizeSettings
 
     settings = StylizeSettings(mode="eed", T=1e-4, spacing=0.01)

@@ -5,7 +5,8 @@ import pytest
 
 from cp_stylize import Torus
 from cp_stylize.mesh import TriangleMesh, parametric_mesh
-from cp_stylize.pipeline import ColourInput, estimate_run, stylize
+from cp_stylize.estimate import estimate_run
+from cp_stylize.pipeline import ColourInput, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
 
 
@@ -88,7 +89,7 @@ def test_estimate_grows_with_the_grid_and_the_filter():
 
 
 def test_the_estimate_counts_the_input_images(torus_mesh):
-    from cp_stylize.pipeline import estimate
+    from cp_stylize.estimate import estimate
 
     vertices, faces, uvs = torus_mesh
     colours = ColourInput(textures=[(np.zeros((2048, 1024, 3), np.float32), uvs, np.ones(len(faces), bool)),
@@ -136,7 +137,8 @@ def test_the_scale_is_the_surfaces_diameter_and_does_not_change_when_the_mesh_is
 
 
 def test_a_face_without_area_far_away_changes_nothing(torus_mesh):
-    from cp_stylize.pipeline import estimate, normalisation
+    from cp_stylize.estimate import estimate
+    from cp_stylize.pipeline import normalisation
 
     vertices, faces, uvs = torus_mesh
     far = np.vstack([vertices, [[100.0, 0, 0], [101.0, 0, 0], [102.0, 0, 0]]])      # three corners on a line

@@ -1,7 +1,7 @@
 import numpy as np
 
 from cp_stylize.mesh import TriangleMesh
-from cp_stylize.pipeline import ColourInput, Texture, colours_at
+from cp_stylize.sampling import ColourInput, Texture, colours_at
 from cp_stylize.seams import REACH, SeamHealing, seam_edges
 
 

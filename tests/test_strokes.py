@@ -365,7 +365,7 @@ def test_flat_parts_of_the_picture_take_level_strokes_and_its_structure_keeps_it
 
 
 def test_the_pictures_horizontal_is_its_u_axis_on_each_face():
-    from cp_stylize.pipeline import ColourInput, Texture, picture_level
+    from cp_stylize.sampling import ColourInput, Texture, picture_level
 
     vertices, faces, uvs = parametric_mesh(lambda u, v: np.stack([2 * u, v, 0 * u], axis=-1), 8, 4)
     mesh = TriangleMesh(vertices, faces)

@@ -9,7 +9,7 @@ Each case is the demo's photograph-textured Suzanne with the given subdivision
 levels, run through :func:`cp_stylize.pipeline.stylize` with the preset at the
 given atlas size and grid spacing, in a process of its own so that its peak
 memory is its own.  Prints a Markdown table of the measured wall time and peak
-resident memory beside :func:`cp_stylize.pipeline.estimate`'s figures, which the
+resident memory beside :func:`cp_stylize.estimate.estimate`'s figures, which the
 add-on uses to refuse runs above its limits; the time estimate is scaled by this
 computer's factor (``x``, :mod:`cp_stylize.calibration`).
 """
@@ -44,7 +44,8 @@ def run_case(path, size, spacing, preset):
     """One run in this process: its figures as a dict."""
     import numpy as np
 
-    from cp_stylize.pipeline import ColourInput, Texture, estimate, stylize
+    from cp_stylize.estimate import estimate
+    from cp_stylize.pipeline import ColourInput, Texture, stylize
     from cp_stylize.presets import load_preset
 
     arrays = np.load(path)

@@ -23,7 +23,7 @@ def estimate(obj, settings, depsgraph=None):
 
     ``h`` is the grid spacing in world units; raises StylizeError (a ValueError) for unusable objects.
     """
-    from ..pipeline import estimate as estimate_run
+    from ..estimate import estimate as estimate_run
     from . import meshdata, stylize
 
     stylize.check_object(obj)

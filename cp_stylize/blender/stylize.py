@@ -93,7 +93,7 @@ class Job:
     slots: list                       # material slot indices the faces use
     fingerprint: str
     slots_state: list
-    estimate: object                  # pipeline.RunEstimate
+    estimate: object                  # estimate.RunEstimate
     result: object = None
     reused: list = dataclasses.field(default_factory=list)   # the parts the run took from the last one
 
@@ -421,7 +421,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
     Raises StylizeError for problems with the object, its materials, the
     save target or the limits.
     """
-    from ..pipeline import estimate
+    from ..estimate import estimate
 
     check_object(obj)
     if output.storage == "SAVE":

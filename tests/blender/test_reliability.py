@@ -628,7 +628,7 @@ def job_centres_uv(obj):
 def _colours_at_face_centres(job):
     import types
 
-    from cp_stylize.pipeline import sample_colours
+    from cp_stylize.sampling import sample_colours
 
     n = len(job.mesh.triangles)
     band = types.SimpleNamespace(face=np.arange(n), bary=np.full((n, 3), 1.0 / 3.0), size=n, surface=None)

@@ -369,7 +369,7 @@ def test_a_mesh_of_faces_without_area_is_refused_by_name(addon, flattened):
 def test_a_large_input_image_counts_in_the_estimate_and_the_limit_stops_the_run_before_it_is_read(addon,
                                                                                                    monkeypatch):
     from cp_stylize.blender import images, operators, stylize
-    from cp_stylize.pipeline import BYTES_PER_IMAGE_PIXEL
+    from cp_stylize.estimate import BYTES_PER_IMAGE_PIXEL
 
     obj = sphere(material=image_material("Painted", halves("source", size=2048)))
     settings = addon.to_settings()

@@ -1,0 +1,124 @@
+"""What a run will cost, said before it starts: its grid spacing, band points, memory and seconds.
+
+:func:`estimate` reads only the mesh's size and the settings (no band is
+built); :func:`estimate_run` gives the seconds and bytes of a run of a given
+number of band points.  The constants are rough costs measured on a 2-core
+machine (``python -m cp_stylize bench`` and the README's Performance
+section); :mod:`cp_stylize.calibration` scales the seconds by this machine's
+speed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .atlas import XATLAS_FACES
+from .band import estimate_band_size
+from .pipeline import KEEP_BAKE_TEXELS, normalisation, stencil_for
+
+__all__ = ["RunEstimate", "estimate", "estimate_run"]
+
+
+#: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
+#: the README's Performance section (fast scheme): seconds per band point to build the band and
+#: the scheme's operators and to bake in and out ...
+SECONDS_SETUP_PER_POINT = {"gaussian": 2.7e-6, "other": 3.6e-6}
+#: ... per band point and colour channel for one step (an extension and a stencil product) ...
+SECONDS_STEP_PER_POINT = 1.8e-8
+#: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
+SECONDS_TENSOR_PER_POINT = 1.35e-7
+#: ... per triangle for the closest point search (it meets every triangle near each block) ...
+SECONDS_PER_TRIANGLE = 2e-5
+#: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
+#: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
+SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 1.6e-4, "charts": 3e-6}
+#: ... per texel of the atlas (its raster, and the bake-out of the share it covers) ...
+SECONDS_PER_TEXEL = 8e-7
+#: ... per pixel of the input images (read out, their colours' hull, their detail) ...
+SECONDS_PER_IMAGE_PIXEL = 1e-7
+#: ... and once a run (the colour hull, the normalisation, small set-ups).
+SECONDS_PER_RUN = 0.9
+
+#: Brush strokes: seconds per baked texel and layer of strokes, per band point and layer for their
+#: stroke fields, and the share of an atlas's texels that are baked (islands and margin).
+SECONDS_STROKES_PER_TEXEL = 2.5e-6
+SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
+BAKED_SHARE = 0.6
+
+#: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
+#: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
+BYTES_PER_BAND_POINT = 1650
+#: ... a triangle (the closest point search's candidate pairs), a texel of the atlas ...
+BYTES_PER_TRIANGLE = 500
+BYTES_PER_TEXEL = 128
+#: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
+#: indices on the baked share and the margin) ...
+BYTES_KEPT_PER_TEXEL = 680
+#: ... a pixel of the input images (their float RGBA pixels read out, and the host's own buffer of
+#: them: 16 bytes each for a float image in Blender) ...
+BYTES_PER_IMAGE_PIXEL = 32
+#: ... and the libraries a Python process with NumPy and SciPy holds.
+BYTES_PER_RUN = 200 * 2**20
+
+
+def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap=False, image_pixels=0, speed=1.0):
+    """Rough ``(seconds, bytes)`` of a run (atlas, band, bake-in, fast diffusion, bake-out) on
+    ``n_points`` band points around a mesh of ``triangles``; ``keep``: with a :class:`RunCache`, which
+    also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made;
+    ``image_pixels``: the pixels of the input images; ``speed``: how many times longer than the
+    machine the constants were measured on this computer takes (:mod:`cp_stylize.calibration`)."""
+    from .diffusion import PAPER_CFL
+    from .heat_flow import time_steps
+
+    steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing ** 2)
+    per_point = SECONDS_SETUP_PER_POINT["gaussian" if settings.mode == "gaussian" else "other"]
+    per_point += steps * channels * SECONDS_STEP_PER_POINT
+    if settings.mode != "gaussian":
+        per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
+    texels = settings.image_size ** 2
+    seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
+    seconds += image_pixels * SECONDS_PER_IMAGE_PIXEL
+    if unwrap:
+        seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
+    if settings.strokes > 0:
+        layers = settings.stroke_layers
+        seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
+    nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
+    if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
+        nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
+    return seconds * speed, nbytes
+
+
+@dataclasses.dataclass(frozen=True)
+class RunEstimate:
+    """What a run on a mesh will take, before it runs."""
+
+    spacing: float       # grid spacing in the mesh's own units
+    band_points: int
+    bytes: int
+    seconds: float
+
+
+def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False, image_pixels=0, speed=None):
+    """A :class:`RunEstimate` of :func:`stylize` on a mesh with ``settings``.
+
+    ``keep``: with a cache; ``unwrap``: the mesh has no UVs, so a new atlas is
+    made; ``image_pixels``: the pixels of the input images
+    (:attr:`ColourInput.image_pixels`); ``speed``: the time factor of this
+    computer (None: :func:`cp_stylize.calibration.machine_speed`, measured
+    once a process, well under a second).
+    """
+    centre, scale = normalisation(vertices, faces)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    a, b, c = (vertices[np.asarray(faces)[:, k]] for k in range(3))
+    area = 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()) * scale**2
+    n = estimate_band_size(area, settings.spacing, stencil=stencil_for(settings.mode))
+    if speed is None:
+        from .calibration import machine_speed
+
+        speed = machine_speed()
+    seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap, image_pixels, speed)
+    return RunEstimate(settings.spacing / scale, n, nbytes, seconds)
