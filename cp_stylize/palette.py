@@ -17,6 +17,13 @@ take the same colour.  :func:`map_to_palette` works in OKLab
   a grey takes whichever colour the palette gives its tone (a grey sky the
   painting's blues).
 
+``keep_values`` keeps the picture's own light and dark: from 0 (the equalised
+ranks above) to 1, where a colour's place among the palette's tones is where
+its own lightness lies among the palette colours' lightnesses, so that the
+result's lightness is the picture's (within the palette's range) and the
+palette chooses the hue and chroma: a dark forest floor stays dark, a pale
+wall stays pale, whatever share of the tones the weights give each colour.
+
 The palette colours are blended by how well they fit (a soft choice: no hard
 splits where a tone crosses from one colour to the next).  ``fidelity``
 then leads back to the picture's own colours: from 0 to 0.5 its hues turn
@@ -118,7 +125,7 @@ def tone_ranks(lightness):
     return np.interp(lightness, np.linspace(0.0, 1.0, TONE_BINS + 1), edges)
 
 
-def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
+def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=0.0):
     """The colours (M, 3) mapped onto a palette by tone and hue (see the module's notes).
 
     Parameters
@@ -132,6 +139,9 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
     fidelity : float in [0, 1]
         0: the palette's colours; 0.5: the picture's hues in the palette's
         tones; 1: the picture's own colours.
+    keep_values : float in [0, 1]
+        How much of the picture's own lightness is kept: 0 its tones spread
+        over the palette's by rank, 1 its lightness (within the palette's).
 
     Returns
     -------
@@ -142,6 +152,8 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
         raise ValueError(f"colours must have shape (M, 3) or more channels, got {colours.shape}")
     if not 0.0 <= fidelity <= 1.0:
         raise ValueError(f"fidelity must lie in [0, 1], got {fidelity!r}")
+    if not 0.0 <= keep_values <= 1.0:
+        raise ValueError(f"keep_values must lie in [0, 1], got {keep_values!r}")
     palette, weights = check_palette(palette, weights)
     lab_palette = to_oklab(palette)
     order = np.argsort(lab_palette[:, 0], kind="stable")          # darkest first
@@ -149,11 +161,13 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
     centres = np.cumsum(weights) - weights / 2                    # each colour's share of the ranks
     lab = to_oklab(colours[:, :3])
     ranks = tone_ranks(lab[:, 0])
+    if keep_values > 0:         # the rank at which the palette's lightness is the colour's own
+        ranks = (1.0 - keep_values) * ranks + keep_values * np.interp(lab[:, 0], lab_palette[:, 0], centres)
     out = np.empty((len(colours), 3))
 
     def chunk(s):
         part = slice(s, s + _CHUNK)
-        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity)
+        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity, keep_values)
 
     map_parallel(chunk, range(0, len(colours), _CHUNK))
     result = colours.astype(np.float32, copy=True)
@@ -161,7 +175,7 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0):
     return result
 
 
-def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
+def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values):
     """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
@@ -185,8 +199,9 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity):
         mix[:, channels] = fit @ lab_palette[:, channels]
     mix[:, 1:] = kept_chroma(mix[:, 1:], fit @ palette_chroma)
     darkest, lightest = lab_palette[0, 0], lab_palette[-1, 0]
-    ramp = ((1.0 - TONE_SPREAD) * np.interp(ranks, centres, lab_palette[:, 0])     # the palette's lightness at the
-            + TONE_SPREAD * (darkest + (lightest - darkest) * ranks))             # rank, spread evenly in part
+    spread = TONE_SPREAD * (1.0 - keep_values)     # the picture's own lightness needs no spreading
+    ramp = ((1.0 - spread) * np.interp(ranks, centres, lab_palette[:, 0])     # the palette's lightness at the
+            + spread * (darkest + (lightest - darkest) * ranks))             # rank, spread evenly in part
     lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp
     # fidelity: the picture's hue first (full at 0.5), then its lightness and chroma
     turn = (min(1.0, 2.0 * fidelity) * np.clip(chroma / (TURN_GREY * GREY), 0.0, 1.0))[:, None]

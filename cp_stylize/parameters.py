@@ -98,6 +98,10 @@ RUN = {p.name: p for p in (
     Parameter("fidelity", "Fidelity", "How much of the picture's own colours the palette keeps: 0 the palette "
                                       "alone, 0.5 the picture's hues in the palette's tones, 1 the picture's colours",
               0.0, 1.0, 0.0),
+    Parameter("keep_values", "Keep Values", "How much of the picture's own light and dark the palette keeps: "
+                                            "0 spreads the picture's tones over the palette's (each colour takes "
+                                            "its weight's share), 1 keeps the picture's lightness and lets the "
+                                            "palette choose hue and chroma", 0.0, 1.0, 0.0),
     Parameter("contours", "Contours", "Dark lines along the picture's strong edges, drawn on the surface, this "
                                       "strong (0: none)", 0.0, 1.0, 0.0),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "

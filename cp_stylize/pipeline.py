@@ -309,7 +309,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     values = sampled
     weights = settings.palette_weights or None
     if settings.noise_mapping == "tone":
-        values = map_to_palette(values, settings.palette, weights, fidelity=settings.fidelity)
+        values = map_to_palette(values, settings.palette, weights, fidelity=settings.fidelity,
+                                keep_values=settings.keep_values)
         if settings.noise_fraction > 0:
             values = palette_noise(values, settings.noise_fraction, settings.palette, weights,
                                    spread=settings.noise_spread, seed=settings.seed)
@@ -340,7 +341,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         recolour = None
         if settings.noise_mapping == "tone":
             def recolour(picture):
-                return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity)
+                return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity,
+                                      keep_values=settings.keep_values)
         level = None
         if brush is not None and colours.textures:           # flat parts of a picture: level strokes
             level = level_field(band, field, picture_level(mesh, colours))

@@ -240,6 +240,7 @@ class StylizeSettings:
     stroke_jitter: float = RUN["stroke_jitter"].default
     swirl: float = RUN["swirl"].default
     fidelity: float = RUN["fidelity"].default      # mapping "tone": how much of the picture's own colours
+    keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
     relief: float = RUN["relief"].default          # the strokes' height, as a second image
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
@@ -348,7 +349,7 @@ _FILE = {
            "detail": "detail", "direction": "direction", "axis": "axis", "attribute": "attribute",
            "contours": "contours"},
     "noise": {"fraction": "noise_fraction", "mapping": "noise_mapping", "spread": "noise_spread", "seed": "seed",
-              "fidelity": "fidelity", "palette": "palette"},
+              "fidelity": "fidelity", "keep_values": "keep_values", "palette": "palette"},
     "strokes": {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
                 "chain": "stroke_chain", "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"},
     "output": {"size": "image_size", "margin": "margin"},
@@ -664,6 +665,7 @@ def preset_text(settings):
     lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
               f"mapping = {_toml_value(settings.noise_mapping)}",
               f"spread = {_toml_value(float(settings.noise_spread))}", f"fidelity = {_toml_value(float(settings.fidelity))}",
+              f"keep_values = {_toml_value(float(settings.keep_values))}",
               f"seed = {int(settings.seed)}", "palette = ["]
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]

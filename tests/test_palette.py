@@ -84,6 +84,28 @@ def test_fidelity_leads_back_to_the_picture():
     assert np.median(hue_difference(to_oklab(none[saturated]), to_oklab(picture[saturated]))) > 40
 
 
+def test_values_keep_the_pictures_own_light_and_dark():
+    """With Keep Values at 1, a dark picture stays dark and a pale one pale, whatever share of the tones the
+    weights give the palette's colours; at 0 the tones are spread over the palette by rank."""
+    palette = _rgb(NIGHT)
+    palette_lightness = to_oklab(palette)[:, 0]
+    # a dark picture: most of it near-black ground, a few mid tones
+    rng = np.random.default_rng(3)
+    grey = np.concatenate([rng.uniform(0.05, 0.15, 900), rng.uniform(0.3, 0.6, 100)])
+    picture = np.repeat(grey[:, None], 3, axis=1)
+    own = to_oklab(picture)[:, 0]
+    kept = to_oklab(map_to_palette(picture, palette, keep_values=1.0))[:, 0]
+    spread = to_oklab(map_to_palette(picture, palette, keep_values=0.0))[:, 0]
+    inside = (own > palette_lightness.min() + 0.02) & (own < palette_lightness.max() - 0.02)
+    assert inside.sum() > 50
+    assert np.max(np.abs(kept[inside] - own[inside])) < 0.03      # the picture's lightness where the palette has it
+    assert np.all(kept >= palette_lightness.min() - 0.03)              # and the palette's range elsewhere
+    assert np.median(spread) > np.median(kept) + 0.1                   # equalised, the dark ground would be lifted
+    assert np.corrcoef(own, kept)[0, 1] > 0.97                          # (the ground below the palette is clamped)
+    with pytest.raises(ValueError, match=r"keep_values must lie in \[0, 1\], got -1"):
+        map_to_palette(picture, palette, keep_values=-1)
+
+
 def test_a_palette_needs_colours_and_weights_not_all_zero():
     with pytest.raises(ValueError, match=r"palette weights must be 2 non-negative numbers, not all zero"):
         map_to_palette(np.zeros((3, 3)), [[0, 0, 0], [1, 1, 1]], [0, 0])

@@ -51,7 +51,7 @@ def test_save_and_load_round_trip(tmp_path):
     assert back.palette_weights == s.palette_weights and back.b_rel == s.b_rel
     assert (back.noise_mapping, back.noise_spread, back.detail) == (s.noise_mapping, s.noise_spread, s.detail)
     for field in ("strokes", "stroke_length", "stroke_width", "stroke_layers", "stroke_jitter", "swirl", "relief",
-                  "fidelity", "contours"):
+                  "fidelity", "keep_values", "contours"):
         assert getattr(back, field) == getattr(s, field)
 
 
@@ -135,7 +135,7 @@ WRONG_TYPES = [
     ('params = "x"', "params must be a table ([params] with sigma, rho, alpha, b_rel, beta, contrast, ink, "
                      "lambda_rel), got 'x'"),
     ('[params]\nrho = "wide"', "[params] rho must lie in [0, 0.05], got 'wide'"),
-    ('noise = 5', "noise must be a table ([noise] with fraction, mapping, spread, seed, fidelity, palette), got 5"),
+    ('noise = 5', "noise must be a table ([noise] with fraction, mapping, spread, seed, fidelity, keep_values, palette), got 5"),
     ('[noise]\nfraction = "half"', "[noise] fraction must lie in [0, 1], got 'half'"),
     ('[noise]\nmapping = 1', "[noise] mapping must be one of ['random', 'tone'], got 1"),
     ('[noise]\nspread = {a = 1}', "[noise] spread must lie in [0, 1], got {'a': 1}"),

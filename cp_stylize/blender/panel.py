@@ -137,6 +137,7 @@ class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "noise_mapping")
         if settings.noise_mapping == "tone":
             layout.prop(settings, "fidelity")
+            layout.prop(settings, "keep_values")
         layout.prop(settings, "noise_fraction")
         if settings.noise_mapping == "tone":
             layout.prop(settings, "noise_spread")

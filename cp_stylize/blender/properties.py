@@ -20,8 +20,8 @@ from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS,
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
 #: Run parameters shown as sliders (shares from 0 to 1).
-FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes", "stroke_jitter", "swirl", "fidelity", "contours",
-           "relief")
+FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes", "stroke_jitter", "swirl", "fidelity", "keep_values",
+           "contours", "relief")
 
 #: Property names that differ from the core's parameter names.
 PROPERTY_NAMES = {"T": "time"}
