@@ -3,9 +3,10 @@
 :func:`painting` makes a :class:`Painting` from the run's filtered colours on
 the band; :func:`cp_stylize.baking.bake_to_atlas` calls it on the atlas's
 texels, after it has interpolated the filtered colours there.  At the texels
-the strokes (:mod:`cp_stylize.strokes`) are painted over the filtered
-colours, the contour lines (:mod:`cp_stylize.contours`) are inked over the
-strokes, and the strokes' heights come back as a height map.
+the strokes (laid by :mod:`cp_stylize.strokes`, drawn by
+:mod:`cp_stylize.canvas`) are painted over the filtered colours, the contour
+lines (:mod:`cp_stylize.contours`) are inked over the strokes, and the
+strokes' heights come back as a height map.
 """
 
 from __future__ import annotations
@@ -16,7 +17,9 @@ from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab
-from .strokes import Brush, StrokeField, Texels, paint, place_dabs
+from .canvas import Texels, paint
+from .stroke_field import StrokeField
+from .strokes import place_dabs
 
 __all__ = ["Painting", "painting", "GRAIN_REACH", "LINE_EDGE"]
 
@@ -151,7 +154,7 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         A direction field the strokes follow where its length is 1 (see
         :func:`cp_stylize.pipeline.stroke_field`).
     level : ndarray, shape (N, 3), optional
-        Where strokes run where the picture has no structure (:func:`cp_stylize.strokes.level_field`).
+        Where strokes run where the picture has no structure (:func:`cp_stylize.stroke_field.level_field`).
     source : callable, optional
         ``source(faces, barys)``: the picture's colours at points of the mesh, at the texture's
         resolution (see :class:`Painting`).

@@ -38,7 +38,8 @@ import numpy as np
 from .oklab import from_oklab, to_oklab
 from .sparse import map_parallel
 
-__all__ = ["map_to_palette", "kept_chroma", "tone_ranks", "palette_noise", "palette_distance", "check_palette", "GREY"]
+__all__ = ["map_to_palette", "kept_chroma", "tone_ranks", "palette_noise", "palette_distance", "check_palette", "GREY",
+           "jitter", "loaded"]
 
 #: Chroma (OKLab) below which a colour's hue is not trusted: a grey's hue is noise.
 GREY = 0.04
@@ -265,3 +266,51 @@ def palette_noise(colours, fraction, palette, weights=None, *, spread=0.1, seed=
     pick = nearest[np.arange(len(chosen)), rng.integers(0, k, len(chosen))]
     out[chosen, :3] = palette[pick]
     return out
+
+
+# -- a brush's broken colour ---------------------------------------------------------------------------
+
+#: The most a dab's jitter moves its lightness (OKLab), at a jitter of 1.
+SHADE = 0.2
+
+
+def jitter(colours, draws, pull, shade, lab_palette):
+    """sRGB colours (n, 3), each moved towards one of the three palette colours nearest to it
+    (:func:`cp_stylize.palette.palette_distance`: its neighbours in hue first) by up to ``pull``, and
+    its lightness by up to ``shade`` times :data:`SHADE`: broken colour.  ``draws`` (n, 3) in [0, 1) pick the
+    neighbour, the share of ``pull`` and the lightness, so that a dab keeps its jitter whatever
+    colour it picks up."""
+    return _jittered(to_oklab(colours), draws, pull, shade, lab_palette)
+
+
+def loaded(colours, draws, pull, shade, lab_palette):
+    """The two sRGB colours (n, 3 each) a brush is loaded with from the colours (n, 3) it picks up: each
+    jittered (:func:`jitter`) by its own ``draws`` and by those of its second colour (:func:`_loaded`),
+    the palette's neighbours of each colour found once for both."""
+    lab = to_oklab(colours)
+    near = _palette_neighbours(lab, pull, lab_palette)
+    return tuple(_jittered(lab.copy(), d, pull, shade, lab_palette, near) for d in (draws, _loaded(draws)))
+
+
+def _palette_neighbours(lab, pull, lab_palette):
+    """The three palette colours nearest to each OKLab colour (n, 3) (indices, (n, 3)), or None without a pull."""
+    if pull > 0 and lab_palette is not None:
+        return np.argsort(palette_distance(lab[:, None, :], lab_palette[None]), axis=1)[:, :3]
+    return None
+
+
+def _jittered(lab, draws, pull, shade, lab_palette, near=None):
+    """:func:`jitter` of OKLab colours ``lab`` (n, 3, changed in place), given their palette neighbours ``near``
+    (found here when None)."""
+    near = _palette_neighbours(lab, pull, lab_palette) if near is None else near
+    if near is not None:
+        pick = near[np.arange(len(lab)), np.minimum((draws[:, 0] * near.shape[1]).astype(np.int64), near.shape[1] - 1)]
+        lab += (pull * draws[:, 1])[:, None] * (lab_palette[pick] - lab)
+    lab[:, 0] += SHADE * shade * (2.0 * draws[:, 2] - 1.0)
+    return from_oklab(lab)
+
+
+def _loaded(draws):
+    """The jitter draws (n, 3) of the second colour a brush is loaded with, from those of its first: another of
+    the neighbouring palette colours, and a lightness on the other side of the picked-up colour's."""
+    return (draws + 0.5) % 1.0

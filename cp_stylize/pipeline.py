@@ -41,7 +41,8 @@ from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
 from .parameters import DIRECTED_MODES
-from .strokes import Brush, form_field, level_field
+from .stroke_field import form_field, level_field
+from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
 
 # ColourInput and Texture (cp_stylize.sampling) are named here too: a run's colours are given as them
@@ -103,7 +104,7 @@ def stroke_field(band, settings, directions=None):
     - ``"max"``, ``"min"``: a principal curvature direction times its
       confidence (0 at umbilics, on spheres and flat parts); with brush
       strokes, completed there by the object's z axis on the surface (its
-      meridians for "min", its parallels for "max": :func:`cp_stylize.strokes.form_field`);
+      meridians for "min", its parallels for "max": :func:`cp_stylize.stroke_field.form_field`);
     - ``"axis"``: ``settings.axis`` (normalised); the diffusion keeps its
       tangential part, whose length falls to 0 where the surface faces it;
     - ``"attribute"``: ``directions``, per-corner vectors (F, 3, 3) of the

@@ -185,12 +185,12 @@ def dab_aspects(dabs, texels, sample=500, seed=0):
     """Length over width (M,) of the drawn footprints of ``sample`` dabs: the extent of the texels each
     covers by more than half, along its direction and across its arc (on the surface, before any
     later dab covers it)."""
-    from cp_stylize import strokes
+    from cp_stylize import canvas
 
     rng = np.random.default_rng(seed)
     which = np.sort(rng.choice(len(dabs), size=min(sample, len(dabs)), replace=False))
     sides = np.cross(dabs.normal, dabs.direction)
-    i, j, alpha, _, _ = strokes._covering(dabs, strokes._Shapes(dabs), strokes._uv_axes(dabs, texels), texels, which)
+    i, j, alpha, _, _ = canvas._covering(dabs, canvas._Shapes(dabs), canvas._uv_axes(dabs, texels), texels, which)
     i, j = i[alpha > 0.5], j[alpha > 0.5]
     delta = texels.points[j] - dabs.centre[i]
     along = np.einsum("ij,ij->i", delta, dabs.direction[i])
@@ -266,7 +266,8 @@ def _dabs(subject, settings, result):
     from cp_stylize.palette import map_to_palette
     from cp_stylize.pipeline import ColourInput, Texture, normalisation, stencil_for
     from cp_stylize.sampling import sample_colours
-    from cp_stylize.strokes import Brush, Texels, place_dabs
+    from cp_stylize.canvas import Texels
+    from cp_stylize.strokes import Brush, place_dabs
 
     vertices, faces, uvs, image, wrap = subject
     centre, scale = normalisation(vertices, faces)

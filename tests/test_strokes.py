@@ -7,8 +7,10 @@ from cp_stylize import Band, Sphere
 from cp_stylize.atlas import uv_atlas
 from cp_stylize.baking import atlas_points, texel_lengths
 from cp_stylize.mesh import TriangleMesh, parametric_mesh
-from cp_stylize import strokes
-from cp_stylize.strokes import Brush, Dabs, StrokeField, Swirls, Texels, paint, place_dabs
+from cp_stylize import canvas, strokes
+from cp_stylize.canvas import Texels, paint
+from cp_stylize.stroke_field import StrokeField, Swirls
+from cp_stylize.strokes import Brush, Dabs, place_dabs
 
 
 @pytest.fixture(scope="module")
@@ -152,7 +154,7 @@ def test_dabs_keep_a_direction_where_a_given_field_has_none(sphere):
 
 
 def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphere):
-    from cp_stylize.strokes import FALLBACK_TRUST, form_field
+    from cp_stylize.stroke_field import FALLBACK_TRUST, form_field
 
     mesh, band, atlas, texels = sphere
     n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
@@ -219,12 +221,12 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     middle = front & (along < 0.1)                                   # across the dab's middle
     body = height[middle & (across < 0.05)]
     assert body.min() > 0.25 * height.max()       # its body stands, bristle furrows and all (the head and rims stand highest)
-    rim = height[middle & (np.abs(across - 0.2 * strokes.RIM_AT) < 0.01)]   # the rim's crest
+    rim = height[middle & (np.abs(across - 0.2 * canvas.RIM_AT) < 0.01)]   # the rim's crest
     assert len(rim) > 2 and rim.mean() > 1.15 * body.mean()          # paint pushed aside: a rim along its sides
     # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
     beyond = middle & (across > 0.2 + np.max(texels.lengths))
     assert beyond.sum() > 5 and not np.any(height[beyond] > 0)
-    ramp = middle & (across > 0.2 * (1.0 - strokes.EDGE)) & (across < 0.2)
+    ramp = middle & (across > 0.2 * (1.0 - canvas.EDGE)) & (across < 0.2)
     assert ramp.sum() > 2 and height[ramp].min() < rim.min()
 
 
@@ -289,7 +291,7 @@ def test_a_strokes_dabs_have_one_head_and_one_tail_and_run_on_into_one_another(s
     reference = np.tile([[1.0, 0.0, 0.0]], (len(base), 1))
     head_of_second = middle & (np.abs(texels.points[:, 2] - (0.5 * strokes.CHAIN_STEP - 0.5) * 0.6) < 0.06)
     body_of_first = middle & (np.abs(texels.points[:, 2] + 0.5 * strokes.CHAIN_STEP * 0.6) < 0.06)
-    _, one_stroke = paint(_chained_pair(mesh, [strokes.HEAD_END, strokes.TAIL_END]), texels, base, reference)
+    _, one_stroke = paint(_chained_pair(mesh, [canvas.HEAD_END, canvas.TAIL_END]), texels, base, reference)
     _, two_strokes = paint(_chained_pair(mesh, [3, 3]), texels, base, reference)
     assert one_stroke[head_of_second].max() < 1.1 * one_stroke[body_of_first].max()
     assert two_strokes[head_of_second].max() > 1.3 * two_strokes[body_of_first].max()   # two strokes pile up
@@ -303,7 +305,7 @@ def test_a_strokes_last_dab_runs_dry_along_its_bristles_and_the_others_do_not(sp
     across = np.abs(texels.points[:, 0])
     along = texels.points[:, 2] / 0.4                                 # the dab's half length is 0.4
     covered = {}
-    for ends in (strokes.HEAD_END, strokes.HEAD_END | strokes.TAIL_END):
+    for ends in (canvas.HEAD_END, canvas.HEAD_END | canvas.TAIL_END):
         dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)
         dab.ends = np.array([ends], np.int8)
         out, _ = paint(dab, texels, base, reference)
@@ -312,8 +314,8 @@ def test_a_strokes_last_dab_runs_dry_along_its_bristles_and_the_others_do_not(sp
     tail = front & (along > 0.75) & (along < 0.85) & (across < 0.1)
     for red in covered.values():
         assert red[body].min() > 0.8                                  # the body is covered
-    assert covered[strokes.HEAD_END][tail].min() > 0.8                # a dab that goes on is covered to its tail
-    dry = covered[strokes.HEAD_END | strokes.TAIL_END][tail]
+    assert covered[canvas.HEAD_END][tail].min() > 0.8                # a dab that goes on is covered to its tail
+    dry = covered[canvas.HEAD_END | canvas.TAIL_END][tail]
     assert dry.min() < 0.3 and dry.max() > 0.8                        # the stroke's end breaks up: gaps and paint
 
 
@@ -334,7 +336,7 @@ def test_a_loaded_brush_lays_its_second_colour_along_one_side_in_streaks(sphere)
 
 
 def test_flat_parts_of_the_picture_take_level_strokes_and_its_structure_keeps_its_own(sphere):
-    from cp_stylize.strokes import level_field
+    from cp_stylize.stroke_field import level_field
 
     mesh, band, _, _ = sphere
     n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
