@@ -1,7 +1,7 @@
 """The parameters of a stylization run, and each filter mode's: one table.
 
 Every number a user can set is a :class:`Parameter` here, with its label,
-description, limits and unit.  :data:`FILTERS` says which filter parameters
+description, limits, unit and (for the run's own) its key in a preset file.  :data:`FILTERS` says which filter parameters
 each mode takes and their defaults.  The core's validation
 (:class:`~cp_stylize.presets.StylizeSettings`, so preset files too), the
 add-on's properties and panel, and the README's tables are all built from
@@ -36,6 +36,7 @@ class Parameter:
     unit: str = "ratio"      # "time", "length", "ratio" or "count" (a whole number)
     precision: int = 6       # digits the panel shows
     step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
+    file: tuple = (None, None)   # a run parameter's place in a preset file: (table or None for the top, key)
 
     def check(self, value):
         """``value`` as a float (an int for a count), or ValueError naming the parameter, its limits and the
@@ -64,48 +65,63 @@ def check_value(name, value, minimum, maximum):
 #: The run's own parameters.
 RUN = {p.name: p for p in (
     Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to a diameter of 2): how far the "
-                           "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time"),
+                           "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time",
+              file=(None, "T")),
     Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a "
-                                         "diameter of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1),
+                                         "diameter of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1,
+              file=(None, "spacing")),
     Parameter("noise_fraction", "Noise", "Share of the band points replaced by palette colours before the "
-                                         "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0),
+                                         "filter (painterly looks; 0 for none)", 0.0, 1.0, 0.0,
+              file=("noise", "fraction")),
     Parameter("noise_spread", "Spread", "Noise by tone and hue: how far from its own colour a point may pick "
-                                        "its palette colour (0: the nearest; 1: any)", 0.0, 1.0, 0.1),
+                                        "its palette colour (0: the nearest; 1: any)", 0.0, 1.0, 0.1,
+              file=("noise", "spread")),
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution); under brush strokes, its "
                                   "lightness shows in the paint (windows, lettering) and its thin dark lines "
-                                  "(a mast, bare branches) are drawn over the strokes", 0.0, 1.0, 1.0),
+                                  "(a mast, bare branches) are drawn over the strokes", 0.0, 1.0, 1.0,
+              file=(None, "detail")),
     Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
-                                    "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0),
+                                    "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0,
+              file=("strokes", "strength")),
     Parameter("stroke_length", "Stroke Length", "Length of the largest dabs of paint (object normalised to a "
                                                 "diameter of 2); the first layer lays up to Chain of them end to "
                                                 "end along the picture, as one long stroke", 0.01, 1.0, 0.1, "length",
-              precision=3, step=1),
+              precision=3, step=1, file=("strokes", "length")),
     Parameter("stroke_width", "Stroke Width", "Width of the largest brush strokes (object normalised to a diameter "
                                               "of 2); strokes narrower than three texels are not drawn",
-              0.003, 0.2, 0.03, "length", precision=4, step=0.1),
+              0.003, 0.2, 0.03, "length", precision=4, step=0.1,
+              file=("strokes", "width")),
     Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.8 times "
                                          "narrower and go only where the picture has detail", 1, 4, 3, "count",
-              precision=0, step=100),
+              precision=0, step=100,
+              file=("strokes", "layers")),
     Parameter("stroke_chain", "Chain", "Dabs the first layer lays end to end along the picture as one stroke, "
                                        "while the picture's colour under it stays alike (1: single dabs)", 1, 8, 3,
-              "count", precision=0, step=100),
+              "count", precision=0, step=100,
+              file=("strokes", "chain")),
     Parameter("stroke_jitter", "Jitter", "How far each stroke's colour moves towards a neighbouring palette colour "
-                                         "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3),
+                                         "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3,
+              file=("strokes", "jitter")),
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
-                                "(0: they follow the picture alone)", 0.0, 1.0, 0.0),
+                                "(0: they follow the picture alone)", 0.0, 1.0, 0.0,
+              file=("strokes", "swirl")),
     Parameter("fidelity", "Fidelity", "How much of the picture's own colours the palette keeps: 0 the palette "
                                       "alone, 0.5 the picture's hues in the palette's tones, 1 the picture's colours",
-              0.0, 1.0, 0.0),
+              0.0, 1.0, 0.0,
+              file=("noise", "fidelity")),
     Parameter("keep_values", "Keep Values", "How much of the picture's own light and dark the palette keeps: "
                                             "0 spreads the picture's tones over the palette's (each colour takes "
                                             "its weight's share), 1 keeps the picture's lightness and lets the "
-                                            "palette choose hue and chroma", 0.0, 1.0, 0.0),
+                                            "palette choose hue and chroma", 0.0, 1.0, 0.0,
+              file=("noise", "keep_values")),
     Parameter("contours", "Contours", "Dark lines along the picture's strong edges, drawn on the surface, this "
-                                      "strong (0: none)", 0.0, 1.0, 0.0),
+                                      "strong (0: none)", 0.0, 1.0, 0.0,
+              file=(None, "contours")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
-                                  "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0),
+                                  "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
+              file=("strokes", "relief")),
 )}
 
 #: Seeds of the random noise: whole numbers a 32-bit integer holds, as Blender's integer properties do.

@@ -342,18 +342,22 @@ def _hex(rgb):
 
 # -- preset files ------------------------------------------------------------------------------------
 
+def _run_keys(table):
+    """The run parameters kept in a preset file's ``table`` (None: the top level): ``{key: setting}``, from
+    the parameter table (:attr:`cp_stylize.parameters.Parameter.file`)."""
+    return {p.file[1]: p.name for p in RUN.values() if p.file[0] == table}
+
+
 #: The preset file's fields: ``{table: {key: setting}}``, None for the top level (``[params]`` holds the
-#: filter parameters by name).
+#: filter parameters by name); the run's numbers take their keys from the parameter table.
 _FILE = {
-    None: {"name": "name", "description": "description", "mode": "mode", "T": "T", "spacing": "spacing",
-           "detail": "detail", "direction": "direction", "axis": "axis", "attribute": "attribute",
-           "contours": "contours"},
-    "noise": {"fraction": "noise_fraction", "mapping": "noise_mapping", "spread": "noise_spread", "seed": "seed",
-              "fidelity": "fidelity", "keep_values": "keep_values", "palette": "palette"},
-    "strokes": {"strength": "strokes", "length": "stroke_length", "width": "stroke_width", "layers": "stroke_layers",
-                "chain": "stroke_chain", "jitter": "stroke_jitter", "swirl": "swirl", "relief": "relief"},
+    None: {"name": "name", "description": "description", "mode": "mode", **_run_keys(None),
+           "direction": "direction", "axis": "axis", "attribute": "attribute"},
+    "noise": {"mapping": "noise_mapping", "seed": "seed", **_run_keys("noise"), "palette": "palette"},
+    "strokes": _run_keys("strokes"),
     "output": {"size": "image_size", "margin": "margin"},
 }
+
 _PALETTE_ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weight of at least 0)'
 
 
@@ -652,25 +656,22 @@ def _colour_value(rgb):
 
 def preset_text(settings):
     """The TOML text of a preset file holding every field of ``settings``."""
+    def run(table):               # the run's numbers kept in ``table``, as the parameter table places them
+        return [f"{key} = {_toml_value(getattr(settings, name))}" for key, name in _run_keys(table).items()]
+
     lines = [f"name = {_toml_value(settings.name)}", f"description = {_toml_value(settings.description)}",
-             f"mode = {_toml_value(settings.mode)}", f"T = {_toml_value(float(settings.T))}",
-             f"spacing = {_toml_value(float(settings.spacing))}", f"detail = {_toml_value(float(settings.detail))}"]
-    lines.append(f"contours = {_toml_value(float(settings.contours))}")
+             f"mode = {_toml_value(settings.mode)}", *run(None)]
     if settings.direction is not None:
         lines.append(f"direction = {_toml_value(settings.direction)}")
     lines.append(f"axis = [{', '.join(_toml_value(float(a)) for a in settings.axis)}]")
     lines.append(f"attribute = {_toml_value(settings.attribute)}")
     lines += ["", "[params]"]
     lines += [f"{k} = {_toml_value(float(v))}" for k, v in settings.params.items()]
-    lines += ["", "[noise]", f"fraction = {_toml_value(float(settings.noise_fraction))}",
-              f"mapping = {_toml_value(settings.noise_mapping)}",
-              f"spread = {_toml_value(float(settings.noise_spread))}", f"fidelity = {_toml_value(float(settings.fidelity))}",
-              f"keep_values = {_toml_value(float(settings.keep_values))}",
-              f"seed = {int(settings.seed)}", "palette = ["]
+    lines += ["", "[noise]", f"mapping = {_toml_value(settings.noise_mapping)}", f"seed = {int(settings.seed)}",
+              *run("noise"), "palette = ["]
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
-    lines += ["]", "", "[strokes]"] + [f"{key} = {_toml_value(getattr(settings, field))}"
-                                      for key, field in _FILE["strokes"].items()]
+    lines += ["]", "", "[strokes]", *run("strokes")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

@@ -55,6 +55,22 @@ def test_save_and_load_round_trip(tmp_path):
         assert getattr(back, field) == getattr(s, field)
 
 
+def test_every_run_parameter_of_the_table_round_trips_through_a_preset_file(tmp_path):
+    """The parameter table says where each run parameter lives in a preset file; a value other than its default
+    is written there and read back, for every one."""
+    from cp_stylize.parameters import RUN
+    from cp_stylize.presets import preset_text
+
+    base = load_preset("starry_night")
+    for parameter in RUN.values():
+        value = parameter.maximum if getattr(base, parameter.name) != parameter.maximum else parameter.minimum
+        changed = base.replace(**{parameter.name: value})
+        table, key = parameter.file
+        assert f"{key} = " in preset_text(changed).split(f"[{table}]")[-1 if table else 0], parameter.name
+        back = load_preset(save_preset(changed, tmp_path / f"{parameter.name}.toml"))
+        assert getattr(back, parameter.name) == pytest.approx(value), parameter.name
+
+
 def test_a_stroke_direction_round_trips_and_each_mode_has_its_own_default(tmp_path):
     assert StylizeSettings(mode="ced").stroke_direction == "texture"
     assert StylizeSettings(mode="flow").stroke_direction == "min"
@@ -78,7 +94,7 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "blur"', "mode must be one of ['gaussian', 'perona_malik', 'eed', 'ced', 'beltrami', 'flow'], got 'blur'"),
     ('mode = "ced"\nT = -1.0', "T must lie in [1e-06, 0.1], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
-                                "'detail', 'direction', 'axis', 'attribute', 'contours', 'params', 'noise', 'strokes', "
+                                "'detail', 'contours', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', "
                                 "'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
@@ -135,7 +151,7 @@ WRONG_TYPES = [
     ('params = "x"', "params must be a table ([params] with sigma, rho, alpha, b_rel, beta, contrast, ink, "
                      "lambda_rel), got 'x'"),
     ('[params]\nrho = "wide"', "[params] rho must lie in [0, 0.05], got 'wide'"),
-    ('noise = 5', "noise must be a table ([noise] with fraction, mapping, spread, seed, fidelity, keep_values, palette), got 5"),
+    ('noise = 5', "noise must be a table ([noise] with mapping, seed, fraction, spread, fidelity, keep_values, palette), got 5"),
     ('[noise]\nfraction = "half"', "[noise] fraction must lie in [0, 1], got 'half'"),
     ('[noise]\nmapping = 1', "[noise] mapping must be one of ['random', 'tone'], got 1"),
     ('[noise]\nspread = {a = 1}', "[noise] spread must lie in [0, 1], got {'a': 1}"),

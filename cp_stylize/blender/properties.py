@@ -19,9 +19,8 @@ from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS,
 #: Grid spacing relative to an object whose diameter is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
 
-#: Run parameters shown as sliders (shares from 0 to 1).
-FACTORS = ("noise_fraction", "noise_spread", "detail", "strokes", "stroke_jitter", "swirl", "fidelity", "keep_values",
-           "contours", "relief")
+#: Run parameters shown as sliders: the ratios (shares from 0 to 1).
+FACTORS = tuple(p.name for p in RUN.values() if p.unit == "ratio")
 
 #: Property names that differ from the core's parameter names.
 PROPERTY_NAMES = {"T": "time"}
