@@ -221,6 +221,55 @@ def input_colours(colours, settings, channels=3):
     return np.concatenate(found)
 
 
+def palette_colours(values, settings):
+    """The band's colours (N, C) as the settings' palette asks: mapped onto it by tone and hue (mapping
+    ``"tone"``: :func:`cp_stylize.palette.map_to_palette`) with palette noise, or the paper's random
+    palette noise (:func:`cp_stylize.noise.inject_noise`); unchanged without either."""
+    weights = settings.palette_weights or None
+    if settings.noise_mapping == "tone":
+        values = _recolour(settings)(values)
+        if settings.noise_fraction > 0:
+            values = palette_noise(values, settings.noise_fraction, settings.palette, weights,
+                                   spread=settings.noise_spread, seed=settings.seed)
+    elif settings.noise_fraction > 0:
+        values = inject_noise(values, settings.noise_fraction, settings.palette, weights=weights, seed=settings.seed)
+    return values
+
+
+def _recolour(settings):
+    """The settings' mapping of a picture's colours onto their palette (mapping ``"tone"``), or None."""
+    if settings.noise_mapping != "tone":
+        return None
+
+    def recolour(picture):
+        return map_to_palette(picture, settings.palette, settings.palette_weights or None,
+                              fidelity=settings.fidelity, keep_values=settings.keep_values)
+    return recolour
+
+
+def brush_for(settings):
+    """The :class:`~cp_stylize.strokes.Brush` of the settings' strokes, or None without strokes."""
+    if settings.strokes <= 0:
+        return None
+    return Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
+                 chain=settings.stroke_chain, jitter=settings.stroke_jitter, swirl=settings.swirl,
+                 strength=settings.strokes, seed=settings.seed,
+                 fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
+
+
+def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
+    """The :class:`~cp_stylize.painting.Painting` of a run's filtered colours ``result`` (its strokes and
+    contour lines), from the picture's ``sampled`` colours, the stroke ``field``, the run's
+    :class:`ColourInput` and ``source(faces, barys)``, the picture at points of the mesh."""
+    brush = brush_for(settings)
+    level = None
+    if brush is not None and colours.textures:           # flat parts of a picture: level strokes
+        level = level_field(band, field, picture_level(mesh, colours))
+    return painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
+                    palette=settings.palette or None, weights=settings.palette_weights or None, field=field,
+                    recolour=_recolour(settings), level=level, detail=settings.detail, source=source)
+
+
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",
             directions=None, progress=None, log=None, cache=None):
     """Stylize a mesh's surface colour; returns a :class:`StylizeResult`.
@@ -307,16 +356,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         found = colours_at(face, bary, colours)
         return found if heal is None else heal(face, bary, found)
 
-    values = sampled
-    weights = settings.palette_weights or None
-    if settings.noise_mapping == "tone":
-        values = map_to_palette(values, settings.palette, weights, fidelity=settings.fidelity,
-                                keep_values=settings.keep_values)
-        if settings.noise_fraction > 0:
-            values = palette_noise(values, settings.noise_fraction, settings.palette, weights,
-                                   spread=settings.noise_spread, seed=settings.seed)
-    elif settings.noise_fraction > 0:
-        values = inject_noise(values, settings.noise_fraction, settings.palette, weights=weights, seed=settings.seed)
+    values = palette_colours(sampled, settings)
     lap("bake_in")
     report(0.15)
     field = stroke_field(band, settings, directions)
@@ -333,25 +373,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                         settings.detail)
     paint = None
     if settings.strokes > 0 or settings.contours > 0:
-        brush = None
-        if settings.strokes > 0:
-            brush = Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
-                          chain=settings.stroke_chain,
-                          jitter=settings.stroke_jitter, swirl=settings.swirl, strength=settings.strokes,
-                          seed=settings.seed, fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
-        recolour = None
-        if settings.noise_mapping == "tone":
-            def recolour(picture):
-                return map_to_palette(picture, settings.palette, weights, fidelity=settings.fidelity,
-                                      keep_values=settings.keep_values)
-        level = None
-        if brush is not None and colours.textures:           # flat parts of a picture: level strokes
-            level = level_field(band, field, picture_level(mesh, colours))
-        paint = painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
-                         palette=settings.palette or None, weights=weights, field=field, recolour=recolour,
-                         level=level,
-                         detail=settings.detail,
-                         source=picture_at)
+        paint = run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field, colours=colours,
+                             source=picture_at)
         report(0.9)
         lap("painting")
     texels = cache.get("texels", layout,
