@@ -26,7 +26,7 @@ from .oklab import from_oklab, to_oklab
 from .palette import kept_chroma, loaded
 from .sparse import map_parallel
 
-__all__ = ["Texels", "paint", "CLIP", "HEAD_END", "TAIL_END"]
+__all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
 #: gone at twice.
@@ -235,7 +235,7 @@ def _covering(dabs, shapes, uv_axes, texels, which):
     place = np.searchsorted(which, found[0])                         # ``which`` is sorted
     inside = found[1] < texels.covered
     area = np.bincount(place, weights=found[2] * texels.lengths[found[1]] ** 2 * inside, minlength=len(which))
-    whole = area >= WHOLE * _AREA * dabs.length[which] * dabs.width[which]
+    whole = area >= WHOLE * DAB_AREA * dabs.length[which] * dabs.width[which]
     if whole.all():
         return found
     keep = whole[place]
@@ -300,7 +300,7 @@ def _half_width(along):
 
 
 #: A dab's area over its length times its width.
-_AREA = float(np.mean(_half_width(np.linspace(-1, 1, 20001))))
+DAB_AREA = float(np.mean(_half_width(np.linspace(-1, 1, 20001))))
 
 
 class _Shapes:

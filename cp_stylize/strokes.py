@@ -42,7 +42,7 @@ import dataclasses
 import numpy as np
 
 from .arrays import aligned
-from .canvas import _AREA, HEAD_END, TAIL_END
+from .canvas import DAB_AREA, HEAD_END, TAIL_END
 from .oklab import to_oklab
 from .palette import check_palette, loaded
 from .stroke_field import StrokeField, Swirls
@@ -225,7 +225,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     parts = []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
         links = brush.chain if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
-        n = int(4 * COVER * mesh.area / (_AREA * length * width))
+        n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
         points, faces, bary = _surface_samples(mesh, n, rng)
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
