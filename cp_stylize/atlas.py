@@ -26,25 +26,16 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
-import threading
 
 import numpy as np
 
-from .arrays import check_uvs, count, expand_runs, split_counts
+from .arrays import check_uvs, count
 from .charts import projected_charts
 from .mesh import check_mesh
-from .sparse import map_parallel, workers
+from .raster import MIN_AREA, rasterise
 
 __all__ = ["Atlas", "UnusableUVs", "uv_atlas", "uv_problems"]
 
-#: Texel centres rasterised at once.
-_TEXELS = 1 << 20
-#: Inside test slack, in texels: a centre on an edge belongs to the triangle ...
-_EDGE = 1e-6
-#: ... but counts towards an overlap only this far inside.
-_INSET = 1e-3
-#: UV triangles below this area, in square texels, have zero area.
-_MIN_AREA = 1e-6
 #: UV coordinates may leave [0, 1] by this much.
 _UV_SLACK = 1e-6
 #: New atlases of meshes with up to this many faces are xatlas unwraps (14 s at 99,224 faces on two
@@ -99,108 +90,6 @@ def _check_size(size):
     return count(size, "size", unit=" number of texels")
 
 
-def _rasterise(uv, size, overlapping=False):
-    """Texels covered by UV triangles ``uv`` (K, 3, 2).
-
-    Returns the covered texels (M,), the triangle chosen for each (the one
-    whose edges its centre is farthest inside), the barycentric coordinates
-    (M, 3), and the number of texels that lie inside two or more triangles
-    by more than ``_INSET`` texels; with ``overlapping``, also the triangles
-    that hold such a texel (sorted, distinct).
-    """
-    p = uv * size - 0.5                                  # texel centres at integers
-    x0, y0, x1, y1, x2, y2 = (p[:, k, a] for k in range(3) for a in range(2))
-    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area
-    edge = np.stack([np.hypot(x2 - x1, y2 - y1), np.hypot(x0 - x2, y0 - y2), np.hypot(x1 - x0, y1 - y0)], 1)
-    usable = (np.abs(det) > 2 * _MIN_AREA) & np.all(np.isfinite(p.reshape(len(p), -1)), axis=1)
-    tri = np.flatnonzero(usable)
-    lo = np.clip(np.ceil(p[tri].min(axis=1) - _EDGE), 0, size).astype(np.int64)
-    hi = np.clip(np.floor(p[tri].max(axis=1) + _EDGE), -1, size - 1).astype(np.int64)
-    rows = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
-    cols = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
-    rows[cols == 0] = 0
-    # units: one texel row of one triangle's bounding box
-    unit_tri, unit_row = expand_runs(rows)
-    unit_row += lo[unit_tri, 1]
-    unit_cols = cols[unit_tri]
-    best_score = np.full(size * size, -np.inf, dtype=np.float32)
-    best_tri = np.full(size * size, -1, dtype=np.int32)
-    best_bary = np.zeros((size * size, 3), dtype=np.float32)
-    claims = np.zeros(size * size, dtype=np.uint8)
-    bounds = split_counts(unit_cols, _TEXELS)
-
-    scratch = threading.local()                                         # one stamp array a worker thread
-
-    def candidates(span):
-        """The best triangle of each texel among the units ``span``, and the texels they claim."""
-        s, e = span
-        unit, col = expand_runs(unit_cols[s:e])
-        unit += s
-        t = unit_tri[unit]
-        k = tri[t]
-        qx = (col + lo[t, 0]).astype(np.float64)
-        qy = unit_row[unit].astype(np.float64)
-        l0 = ((x1[k] - qx) * (y2[k] - qy) - (x2[k] - qx) * (y1[k] - qy)) / det[k]
-        l1 = ((x2[k] - qx) * (y0[k] - qy) - (x0[k] - qx) * (y2[k] - qy)) / det[k]
-        l2 = 1.0 - l0 - l1
-        area = np.abs(det[k])
-        score = np.minimum(np.minimum(l0 * area / edge[k, 0], l1 * area / edge[k, 1]), l2 * area / edge[k, 2])
-        texel = unit_row[unit] * size + col + lo[t, 0]
-        inside = np.flatnonzero(score >= -_EDGE)
-        texel, score, k = texel[inside], score[inside], k[inside]
-        l0, l1, l2 = l0[inside], l1[inside], l2[inside]
-        # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
-        # so only the centres near edges, and the overlaps, need a sort to find their best triangle
-        deep = np.flatnonzero(score > _INSET)
-        deep_texel = texel[deep]
-        order = np.arange(len(deep), dtype=np.int32)
-        stamp = getattr(scratch, "stamp", None)                         # the last deep candidate of a texel
-        if stamp is None:
-            stamp = scratch.stamp = np.empty(size * size, dtype=np.int32)
-        stamp[deep_texel] = order
-        twice = deep_texel[stamp[deep_texel] != order]                   # held deeply by two triangles
-        if len(twice):
-            keep = _best_of(texel, score)
-        else:
-            near_edge = np.flatnonzero(score <= _INSET)
-            at = stamp[texel[near_edge]]
-            beaten = (at >= 0) & (at < len(deep))                       # stamp is not cleared: check it
-            beaten[beaten] = deep_texel[at[beaten]] == texel[near_edge[beaten]]   # a deep candidate wins
-            near_edge = near_edge[~beaten]
-            keep = np.concatenate([deep, near_edge[_best_of(texel[near_edge], score[near_edge])]])
-        held = (deep_texel, k[deep]) if overlapping else None
-        bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
-        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (deep_texel, twice), held
-
-    # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
-    spans = list(zip(bounds[:-1], bounds[1:]))
-    holders = []
-    for g in range(0, len(spans), 2 * workers()):
-        for texel, score, k, bary, (claimed, twice), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
-            holders.append(held)
-            claims[claimed] = np.minimum(claims[claimed] + 1, 2)
-            claims[twice] = 2
-            better = score > best_score[texel]
-            texel = texel[better]
-            best_score[texel] = score[better]
-            best_tri[texel] = k[better]
-            best_bary[texel] = bary[better]
-    texels = np.flatnonzero(best_tri >= 0)
-    bary = np.clip(best_bary[texels].astype(np.float64), 0.0, None)
-    bary /= bary.sum(axis=1, keepdims=True)
-    raster = texels, best_tri[texels].astype(np.int64), bary, int(np.count_nonzero(claims > 1))
-    if not overlapping:
-        return raster
-    held = [k[claims[t] > 1] for t, k in holders]
-    return raster + (np.unique(np.concatenate(held)).astype(np.int64) if held else np.zeros(0, np.int64),)
-
-
-def _best_of(texel, score):
-    """Positions of the best candidate of each distinct texel: the highest score, the last of equal ones."""
-    order = np.lexsort((score, texel))
-    return order[np.r_[texel[order][1:] != texel[order][:-1], True]] if len(order) else order
-
-
 def uv_problems(mesh, uvs, size):
     """Why per-corner UVs are not usable for an atlas of ``size`` texels (empty list: usable).
 
@@ -236,10 +125,10 @@ def _problems(uv, size):
     p = uv * size
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
     det = e1[:, 0] * e2[:, 1] - e2[:, 0] * e1[:, 1]
-    flat = np.abs(det) <= 2 * _MIN_AREA
+    flat = np.abs(det) <= 2 * MIN_AREA
     if flat.any():
         problems.append(f"{int(flat.sum())} face(s) have UV triangles of zero area")
-    raster = _rasterise(uv, size)
+    raster = rasterise(uv, size)
     if raster[3]:
         problems.append(f"UV triangles overlap at {raster[3]} texel(s)")
     return problems, raster
@@ -323,11 +212,11 @@ def uv_atlas(mesh, size, uvs=None, *, force_new=False, padding=None, allow_new=T
     padding = count(padding, "padding", minimum=0, unit=" number of texels")
     if unwrap == "xatlas" or (unwrap == "auto" and has_xatlas and len(mesh.faces) <= XATLAS_FACES):
         corner = _xatlas_uvs(mesh, size, padding)
-        texels, tri, bary, _ = _rasterise(corner, size)
+        texels, tri, bary, _ = rasterise(corner, size)
         how = "xatlas unwrapped it"
     else:
         try:
-            corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding, _rasterise)
+            corner, (texels, tri, bary, _), charts = projected_charts(mesh, size, padding)
         except ValueError as err:
             raise UnusableUVs(problems, str(err)) from None
         why = ("" if unwrap == "charts" else " (xatlas is not installed)" if not has_xatlas

@@ -24,6 +24,7 @@ from .arrays import count
 from .atlas import Atlas
 from .band import apply
 from .mesh import check_mesh
+from .raster import barycentric_2d, closest_in_triangle_2d
 from .sparse import SplitMatrix, map_parallel, workers
 from .texture import texel_centres
 
@@ -54,29 +55,6 @@ class Detail(typing.NamedTuple):
     sampled: np.ndarray
     colour_at: typing.Callable
     strength: float = 1.0
-
-
-def _barycentric_2d(q, a, b, c):
-    """Barycentric coordinates (M, 3) of points ``q`` (M, 2) in triangles ``abc`` (unclamped)."""
-    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
-    v = ((q[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1])) / det
-    w = ((b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (q[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
-    return np.column_stack([1.0 - v - w, v, w])
-
-
-def _closest_in_triangle_2d(q, a, b, c):
-    """Points (M, 2) of triangles ``abc`` nearest to ``q`` (M, 2): inside, or on the nearest edge."""
-    def on_segment(p, r):
-        d = r - p
-        t = np.clip(np.einsum("ij,ij->i", q - p, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-        return p + t[:, None] * d
-
-    candidates = np.stack([on_segment(a, b), on_segment(b, c), on_segment(c, a)])
-    gap = ((candidates - q[None]) ** 2).sum(axis=2)
-    nearest = candidates[np.argmin(gap, axis=0), np.arange(len(q))]
-    bary = _barycentric_2d(q, a, b, c)
-    inside = np.all(bary >= 0, axis=1)
-    return np.where(inside[:, None], q, nearest)
 
 
 def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, paint=None, progress=None,
@@ -265,11 +243,11 @@ def atlas_points(mesh, atlas, margin):
         row, col = np.divmod(ring, size)
         q = np.column_stack([(col + 0.5) / size, (row + 0.5) / size])
         uv = atlas.uvs[face]
-        border = _closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+        border = closest_in_triangle_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
         out = np.linalg.norm(q - border, axis=1) * size
         step = np.minimum(1.0, _REACH / np.where(out > 0, out, 1.0))
         q = border + step[:, None] * (q - border)
-        bary = _barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
+        bary = barycentric_2d(q, uv[:, 0], uv[:, 1], uv[:, 2])
         plane = np.einsum("mi,mij->mj", bary, corners[mesh.kept_index(face)])
         points[n:], _, faces[n:], barys[n:] = mesh.closest_point_on_faces(plane)
     return texels, points, faces, barys

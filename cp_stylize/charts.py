@@ -31,6 +31,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .raster import rasterise
+
 __all__ = ["projected_charts"]
 
 #: Passes of the normals' smoothing over the faces that share a vertex.
@@ -47,7 +49,7 @@ _LAST_ROUNDS = 6
 _PLANE = np.array([[1, 2], [2, 0], [0, 1]])
 
 
-def projected_charts(mesh, size, padding, rasterise):
+def projected_charts(mesh, size, padding):
     """Per-corner UVs (K, 3, 2) of the mesh's kept faces, in charts projected along the axes.
 
     Parameters
@@ -57,17 +59,13 @@ def projected_charts(mesh, size, padding, rasterise):
         Texels a side of the square atlas.
     padding : int
         Texels between charts, and between a chart and the atlas's border.
-    rasterise : callable
-        ``rasterise(uv, size, overlapping=False)`` as
-        :func:`cp_stylize.atlas._rasterise`: the covered texels, their
-        triangles, barycentric coordinates and the number of texels inside
-        two triangles (with ``overlapping``, also the triangles that hold them).
 
     Returns
     -------
     uv : ndarray, shape (K, 3, 2)
     raster : tuple
-        ``rasterise(uv, size)`` of the result.
+        :func:`cp_stylize.raster.rasterise` of the result: the covered texels, their triangles,
+        barycentric coordinates and the number of texels inside two triangles.
     charts : int
         The number of charts.
 

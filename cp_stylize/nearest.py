@@ -230,16 +230,7 @@ class TriangleSearch:
             if len(start):
                 least[cells[start]] = np.minimum.reduceat(d, start)
             if level == last:
-                keep = d <= least[cells]
-                if width is not None:
-                    keep &= d <= width
-                hit = np.flatnonzero(keep)
-                hit = hit[np.r_[True, cells[hit][1:] != cells[hit][:-1]]] if len(hit) else hit
-                face = np.full(n, -1, dtype=np.int64)
-                face[cells[hit]] = tris[hit]
-                dist2 = np.full(n, np.inf)
-                dist2[cells[hit]] = d2[hit]
-                return face, dist2
+                return _closest_of(cells, tris, d, d2, least, n, width)
             keep = d <= least[cells] + 2.0 * delta[cells] + eps
             if width is not None:
                 keep &= least[cells] - delta[cells] <= width + eps
@@ -262,19 +253,27 @@ class TriangleSearch:
             if regular is not None and regular[nxt] is not None:
                 cells, tris = self._children(regular[nxt], radius[0], cells, tris, d, g, slack, upper, width)
             else:
-                first = np.cumsum(count) - count
-                offset = centre - centres[level][:, parent]
-                step = np.sqrt((offset * offset).sum(axis=0))
-                run, pos = expand_runs(count[parent])
-                src = first[parent[run]] + pos
-                ahead = g[0][src] * offset[0][run] + g[1][src] * offset[1][run] + g[2][src] * offset[2][run]
-                bound = d[src] + np.maximum(ahead - slack[src] * step[run], -step[run]) - radius[run]
-                keep = bound <= upper[run] + eps
-                if width is not None:
-                    keep &= bound <= width + eps
-                cells, tris = run[keep], tris[src[keep]]
+                cells, tris = self._any_children(centre - centres[level][:, parent], parent, radius, count,
+                                                 tris, d, g, slack, upper, width)
             level = nxt
             _, _, r, d2 = self._closest(centre[:, cells], tris)
+
+    def _any_children(self, offset, parent, radius, count, tris, d, g, slack, upper, width):
+        """The pairs (child, triangle) that the bounds of :meth:`_descend` keep, for children at any
+        ``offset`` (3, m) from the centres of their ``parent`` (m,) cells, of any ``radius`` (m,); the
+        parents' pairs ``tris`` (sorted by parent, ``count`` (n,) a parent) with their distances ``d``,
+        gradients ``g`` and the gradients' ``slack``."""
+        eps = 1e-9 * self._scale
+        first = np.cumsum(count) - count
+        step = np.sqrt((offset * offset).sum(axis=0))
+        run, pos = expand_runs(count[parent])
+        src = first[parent[run]] + pos
+        ahead = g[0][src] * offset[0][run] + g[1][src] * offset[1][run] + g[2][src] * offset[2][run]
+        bound = d[src] + np.maximum(ahead - slack[src] * step[run], -step[run]) - radius[run]
+        keep = bound <= upper[run] + eps
+        if width is not None:
+            keep &= bound <= width + eps
+        return run[keep], tris[src[keep]]
 
     def _children(self, offsets, radius, cells, tris, d, g, slack, upper, width):
         """The pairs (child, triangle) that the bounds of :meth:`_descend` keep, for children ``8 p + j``
@@ -466,7 +465,6 @@ class TriangleSearch:
         lo = np.floor((corners.min(axis=1) - width) / side - pad).astype(np.int64)
         hi = np.floor((corners.max(axis=1) + width) / side + pad).astype(np.int64)
         extent = hi - lo + 1
-        counts = extent.prod(axis=1)
         slack = (width + 0.5 * np.sqrt(3.0) * (_BLOCK - 1) * h) * (1 + 1e-9)
         origin = np.min(lo, axis=0)
         dims = np.max(hi, axis=0) - origin + 1
@@ -524,3 +522,19 @@ def _subdivision_centroids(m):
     return np.vstack([upward, downward])
 
 
+
+
+def _closest_of(cells, tris, d, d2, least, n, width):
+    """Of pairs (query point ``cells``, triangle ``tris``) sorted by point, with distances ``d`` and
+    their squares ``d2``: each of the ``n`` points' closest triangle (the first at its least distance
+    ``least``) and squared distance; -1 and infinity where none is, or none within ``width``."""
+    keep = d <= least[cells]
+    if width is not None:
+        keep &= d <= width
+    hit = np.flatnonzero(keep)
+    hit = hit[np.r_[True, cells[hit][1:] != cells[hit][:-1]]] if len(hit) else hit
+    face = np.full(n, -1, dtype=np.int64)
+    face[cells[hit]] = tris[hit]
+    dist2 = np.full(n, np.inf)
+    dist2[cells[hit]] = d2[hit]
+    return face, dist2

@@ -186,7 +186,6 @@ def bake(obj, sockets, size, *, uv_name=None, uvs=None, loops=None):
             "cp_stylize bake", size, size, alpha=False, float_buffer=True))
         blank = None
         for index, slot in enumerate(obj.material_slots):
-            material = slot.material
             if index in sockets:
                 temp = _emitting_copy(changes, *sockets[index], image)
             else:

@@ -1,0 +1,155 @@
+"""UV triangles on a square grid of texels: which texels each covers, and 2-D barycentric coordinates.
+
+Texel ``(row, col)`` of a ``size`` x ``size`` grid has its centre at
+``uv = ((col + 0.5) / size, (row + 0.5) / size)``.  :func:`rasterise` finds
+the texels whose centres lie in UV triangles, and counts those that lie in
+two (overlapping UVs); the atlas (:mod:`cp_stylize.atlas`) and the projected
+charts (:mod:`cp_stylize.charts`) lay their layouts out with it, and the
+bake-out (:mod:`cp_stylize.baking`) places the margin texels with
+:func:`barycentric_2d` and :func:`closest_in_triangle_2d`.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from .arrays import expand_runs, split_counts
+from .sparse import map_parallel, workers
+
+__all__ = ["rasterise", "barycentric_2d", "closest_in_triangle_2d", "MIN_AREA"]
+
+#: Texel centres rasterised at once.
+_TEXELS = 1 << 20
+#: Inside test slack, in texels: a centre on an edge belongs to the triangle ...
+_EDGE = 1e-6
+#: ... but counts towards an overlap only this far inside.
+_INSET = 1e-3
+#: UV triangles below this area, in square texels, have zero area.
+MIN_AREA = 1e-6
+
+
+def rasterise(uv, size, overlapping=False):
+    """Texels covered by UV triangles ``uv`` (K, 3, 2).
+
+    Returns the covered texels (M,), the triangle chosen for each (the one
+    whose edges its centre is farthest inside), the barycentric coordinates
+    (M, 3), and the number of texels that lie inside two or more triangles
+    by more than ``_INSET`` texels; with ``overlapping``, also the triangles
+    that hold such a texel (sorted, distinct).
+    """
+    p = uv * size - 0.5                                  # texel centres at integers
+    x0, y0, x1, y1, x2, y2 = (p[:, k, a] for k in range(3) for a in range(2))
+    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area
+    edge = np.stack([np.hypot(x2 - x1, y2 - y1), np.hypot(x0 - x2, y0 - y2), np.hypot(x1 - x0, y1 - y0)], 1)
+    usable = (np.abs(det) > 2 * MIN_AREA) & np.all(np.isfinite(p.reshape(len(p), -1)), axis=1)
+    tri = np.flatnonzero(usable)
+    lo = np.clip(np.ceil(p[tri].min(axis=1) - _EDGE), 0, size).astype(np.int64)
+    hi = np.clip(np.floor(p[tri].max(axis=1) + _EDGE), -1, size - 1).astype(np.int64)
+    rows = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
+    cols = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
+    rows[cols == 0] = 0
+    # units: one texel row of one triangle's bounding box
+    unit_tri, unit_row = expand_runs(rows)
+    unit_row += lo[unit_tri, 1]
+    unit_cols = cols[unit_tri]
+    best_score = np.full(size * size, -np.inf, dtype=np.float32)
+    best_tri = np.full(size * size, -1, dtype=np.int32)
+    best_bary = np.zeros((size * size, 3), dtype=np.float32)
+    claims = np.zeros(size * size, dtype=np.uint8)
+    bounds = split_counts(unit_cols, _TEXELS)
+
+    scratch = threading.local()                                         # one stamp array a worker thread
+
+    def candidates(span):
+        """The best triangle of each texel among the units ``span``, and the texels they claim."""
+        s, e = span
+        unit, col = expand_runs(unit_cols[s:e])
+        unit += s
+        t = unit_tri[unit]
+        k = tri[t]
+        qx = (col + lo[t, 0]).astype(np.float64)
+        qy = unit_row[unit].astype(np.float64)
+        l0 = ((x1[k] - qx) * (y2[k] - qy) - (x2[k] - qx) * (y1[k] - qy)) / det[k]
+        l1 = ((x2[k] - qx) * (y0[k] - qy) - (x0[k] - qx) * (y2[k] - qy)) / det[k]
+        l2 = 1.0 - l0 - l1
+        area = np.abs(det[k])
+        score = np.minimum(np.minimum(l0 * area / edge[k, 0], l1 * area / edge[k, 1]), l2 * area / edge[k, 2])
+        texel = unit_row[unit] * size + col + lo[t, 0]
+        inside = np.flatnonzero(score >= -_EDGE)
+        texel, score, k = texel[inside], score[inside], k[inside]
+        l0, l1, l2 = l0[inside], l1[inside], l2[inside]
+        # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
+        # so only the centres near edges, and the overlaps, need a sort to find their best triangle
+        deep = np.flatnonzero(score > _INSET)
+        deep_texel = texel[deep]
+        order = np.arange(len(deep), dtype=np.int32)
+        stamp = getattr(scratch, "stamp", None)                         # the last deep candidate of a texel
+        if stamp is None:
+            stamp = scratch.stamp = np.empty(size * size, dtype=np.int32)
+        stamp[deep_texel] = order
+        twice = deep_texel[stamp[deep_texel] != order]                   # held deeply by two triangles
+        if len(twice):
+            keep = _best_of(texel, score)
+        else:
+            near_edge = np.flatnonzero(score <= _INSET)
+            at = stamp[texel[near_edge]]
+            beaten = (at >= 0) & (at < len(deep))                       # stamp is not cleared: check it
+            beaten[beaten] = deep_texel[at[beaten]] == texel[near_edge[beaten]]   # a deep candidate wins
+            near_edge = near_edge[~beaten]
+            keep = np.concatenate([deep, near_edge[_best_of(texel[near_edge], score[near_edge])]])
+        held = (deep_texel, k[deep]) if overlapping else None
+        bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
+        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (deep_texel, twice), held
+
+    # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
+    spans = list(zip(bounds[:-1], bounds[1:]))
+    holders = []
+    for g in range(0, len(spans), 2 * workers()):
+        for texel, score, k, bary, (claimed, twice), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
+            holders.append(held)
+            claims[claimed] = np.minimum(claims[claimed] + 1, 2)
+            claims[twice] = 2
+            better = score > best_score[texel]
+            texel = texel[better]
+            best_score[texel] = score[better]
+            best_tri[texel] = k[better]
+            best_bary[texel] = bary[better]
+    texels = np.flatnonzero(best_tri >= 0)
+    bary = np.clip(best_bary[texels].astype(np.float64), 0.0, None)
+    bary /= bary.sum(axis=1, keepdims=True)
+    raster = texels, best_tri[texels].astype(np.int64), bary, int(np.count_nonzero(claims > 1))
+    if not overlapping:
+        return raster
+    held = [k[claims[t] > 1] for t, k in holders]
+    return raster + (np.unique(np.concatenate(held)).astype(np.int64) if held else np.zeros(0, np.int64),)
+
+
+def _best_of(texel, score):
+    """Positions of the best candidate of each distinct texel: the highest score, the last of equal ones."""
+    order = np.lexsort((score, texel))
+    return order[np.r_[texel[order][1:] != texel[order][:-1], True]] if len(order) else order
+
+
+def barycentric_2d(q, a, b, c):
+    """Barycentric coordinates (M, 3) of points ``q`` (M, 2) in triangles ``abc`` (unclamped)."""
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    v = ((q[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1])) / det
+    w = ((b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (q[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
+    return np.column_stack([1.0 - v - w, v, w])
+
+
+def closest_in_triangle_2d(q, a, b, c):
+    """Points (M, 2) of triangles ``abc`` nearest to ``q`` (M, 2): inside, or on the nearest edge."""
+    def on_segment(p, r):
+        d = r - p
+        t = np.clip(np.einsum("ij,ij->i", q - p, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        return p + t[:, None] * d
+
+    candidates = np.stack([on_segment(a, b), on_segment(b, c), on_segment(c, a)])
+    gap = ((candidates - q[None]) ** 2).sum(axis=2)
+    nearest = candidates[np.argmin(gap, axis=0), np.arange(len(q))]
+    bary = barycentric_2d(q, a, b, c)
+    inside = np.all(bary >= 0, axis=1)
+    return np.where(inside[:, None], q, nearest)
