@@ -189,9 +189,9 @@ class Band:
         self._index[tuple((self.ijk - self._lo).T)] = np.arange(self.size)
         self._matrices = {}
         self._stencil_table = None
-        #: a :class:`~cp_stylize.cache.RunCache` for the structures runs build from the band (see
-        #: :meth:`structure`), set where the band is kept for further runs; None: nothing is kept
-        self.kept = None
+        #: the memo of the structures runs build from the band (:meth:`structure`): a
+        #: :class:`~cp_stylize.cache.RunCache` set where the band is kept for further runs; None: none kept
+        self.memo = None
         self.normals, self.pieces = _sheet_keys(surface, self.cp, self.face, self.bary)
         self._normal_columns = None
         moved = []
@@ -258,10 +258,10 @@ class Band:
     def structure(self, name, key, build):
         """``build()``: a structure made from the band and the parameters ``key``.
 
-        Where the band is kept for further runs (:attr:`kept`), the structure
-        is kept with it, one per ``name``, for the next call with the same key.
+        Where the band is kept for further runs (it has a :attr:`memo`), the
+        structure is kept in it, one per ``name``, for the next call with the same key.
         """
-        return build() if self.kept is None else self.kept.get(name, key, build)
+        return build() if self.memo is None else self.memo.get(name, key, build)
 
     def __repr__(self):
         return f"Band(size={self.size}, h={self.h!r}, width={self.width:.4g}, stencil={self.stencil!r})"

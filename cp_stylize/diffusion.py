@@ -284,7 +284,7 @@ class HeatSmoothing:
         if self.params["sigma"] == 0:
             return rows
         smoothed = rows.copy()
-        heat_rows(self.band, smoothed, self.params["sigma"], dt=self.dt)
+        heat_rows(self.band, smoothed, self.params["sigma"], tau=self.dt)
         return smoothed
 
     def tensor(self, rows, progress=None):

@@ -20,9 +20,9 @@ __all__ = ["heat", "heat_rows", "time_steps"]
 HEAT_CFL = 0.1
 
 
-def time_steps(t, dt):
-    """Split the time ``t`` into ``n`` equal steps of at most ``dt``: returns ``(n, t / n)``."""
-    t, dt = float(t), float(dt)
+def time_steps(T, tau):
+    """Split the time ``T`` into ``n`` equal steps of at most ``tau``: returns ``(n, T / n)``."""
+    t, dt = float(T), float(tau)
     if not np.isfinite(t) or t < 0:
         raise ValueError(f"time must be a non-negative number, got {t!r}")
     if not np.isfinite(dt) or dt <= 0:
@@ -33,7 +33,7 @@ def time_steps(t, dt):
     return n, t / n
 
 
-def heat(band, u0, t, *, dt=None, progress=None):
+def heat(band, u0, T, *, tau=None, progress=None):
     """Solve the heat equation ``u_t = Laplace-Beltrami(u)`` on the band's surface to time ``t``.
 
     Parameters
@@ -44,11 +44,11 @@ def heat(band, u0, t, *, dt=None, progress=None):
         Initial values at the band points, given as a closest point extension
         (each point carries the value at its closest point, e.g. ``f(band.cp)``).
         float64 stays float64; other types compute in float32.
-    t : float
+    T : float
         Stop time, in the surface's units squared.
-    dt : float, optional
+    tau : float, optional
         Largest time step; default ``0.1 * h**2`` (the explicit step is stable
-        below ``h**2 / 6``).  The steps are equal and end exactly at ``t``.
+        below ``h**2 / 6``).  The steps are equal and end exactly at ``T``.
     progress : callable, optional
         Called as ``progress(fraction)`` after each step.  An exception it
         raises propagates and stops the solve.
@@ -56,7 +56,7 @@ def heat(band, u0, t, *, dt=None, progress=None):
     Returns
     -------
     ndarray
-        The solution at time ``t``, same shape as ``u0``.
+        The solution at time ``T``, same shape as ``u0``.
 
     Notes
     -----
@@ -69,15 +69,13 @@ def heat(band, u0, t, *, dt=None, progress=None):
     u0 = band.check_values(u0)
     # channels as contiguous rows: SciPy's sparse products are fastest one vector at a time
     rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
-    heat_rows(band, rows, t, dt=dt, progress=progress)
+    heat_rows(band, rows, T, tau=tau, progress=progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0]
 
 
-def heat_rows(band, rows, t, *, dt=None, progress=None):
+def heat_rows(band, rows, T, *, tau=None, progress=None):
     """:func:`heat` in place on band values stored as rows (k, N) of float32 or float64."""
-    if dt is None:
-        dt = HEAT_CFL * band.h**2
-    n, tau = time_steps(t, dt)
+    n, tau = time_steps(T, HEAT_CFL * band.h**2 if tau is None else tau)
     E = band.extension_matrix(rows.dtype)
     L = band.laplacian_matrix(rows.dtype)
     tau = rows.dtype.type(tau)

@@ -47,7 +47,7 @@ from .sampling import ColourInput, Texture, colours_at, picture_level, sample_co
 
 # ColourInput and Texture (cp_stylize.sampling) are named here too: a run's colours are given as them
 __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "UnusableUVs", "normalisation",
-           "stencil_for", "stroke_field", "sample_directions", "input_colours", "stylize"]
+           "normalised_mesh", "decide_atlas", "stencil_for", "stroke_field", "sample_directions", "input_colours", "stylize"]
 
 #: Every object is scaled so that its diameter (the greatest distance between two points of its surface)
 #: is this long: the paper's scale, at which a sphere has radius 1.
@@ -91,6 +91,33 @@ def normalisation(vertices, faces):
     used = vertices[used]
     lo, hi = used.min(axis=0), used.max(axis=0)
     return 0.5 * (lo + hi), NORMAL_DIAMETER / diameter(used)
+
+
+def normalised_mesh(vertices, faces, cache):
+    """The mesh scaled to a diameter of 2 about its centre (:func:`normalisation`), kept in ``cache`` as
+    ``"mesh"``, and the scale it was multiplied by.  Begins a run on the mesh in ``cache``
+    (:meth:`cp_stylize.cache.RunCache.start`)."""
+    centre, scale = normalisation(vertices, faces)
+    shape = digest(vertices, faces)
+    cache.start(shape)
+    mesh = cache.get("mesh", shape, lambda: TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale,
+                                                          faces))
+    return mesh, scale
+
+
+def decide_atlas(vertices, faces, size, uvs=None, *, new_atlas=True, cache=None):
+    """The UV atlas a run on the mesh lays its ``size`` square image out on: the mesh's own ``uvs``
+    (F, 3, 2) where usable, else a new one if ``new_atlas`` (see :func:`cp_stylize.atlas.uv_atlas`;
+    :class:`UnusableUVs` otherwise).  Kept in ``cache`` as ``"atlas"``, so that a caller that decides it
+    before the run (the add-on, to bake procedural colours into it) and the run share one."""
+    cache = RunCache() if cache is None else cache
+    mesh, _ = normalised_mesh(vertices, faces, cache)
+    return _atlas(mesh, size, uvs, new_atlas, cache)
+
+
+def _atlas(mesh, size, uvs, new_atlas, cache):
+    """:func:`decide_atlas` for the normalised ``mesh`` of the run begun in ``cache``."""
+    return cache.get("atlas", (digest(uvs), size, new_atlas), lambda: uv_atlas(mesh, size, uvs, allow_new=new_atlas))
 
 
 def stroke_field(band, settings, directions=None):
@@ -314,22 +341,18 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
 
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
-    centre, scale = normalisation(vertices, faces)
     if settings.stroke_direction == "attribute" and np.shape(directions) != (len(faces), 3, 3):
         raise ValueError(f"direction 'attribute' needs the mesh's vectors, directions= of shape ({len(faces)}, 3, 3), "
                          f"got {'none' if directions is None else np.shape(directions)}")
     keep = cache is not None
     cache = RunCache() if cache is None else cache
-    shape = digest(vertices, faces)
-    cache.start(shape)
-    mesh = cache.get("mesh", shape, lambda: TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale,
-                                                          faces))
+    mesh, scale = normalised_mesh(vertices, faces, cache)
+    shape = cache.owner                 # the mesh's digest, which began the run in the cache
     if mesh.skipped_faces:
         say(f"skipped {mesh.skipped_faces} degenerate face(s)")
     report(0.0)
     if atlas is None:
-        atlas = cache.get("atlas", (shape, digest(uvs), settings.image_size, new_atlas),
-                          lambda: uv_atlas(mesh, settings.image_size, uvs, allow_new=new_atlas))
+        atlas = _atlas(mesh, settings.image_size, uvs, new_atlas, cache)
     lap("atlas")
     layout = (shape, digest(atlas.uvs, atlas.texels), atlas.size, settings.margin)
     stencil = stencil_for(settings.mode)
@@ -337,7 +360,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     def new_band():
         band = Band.build(mesh, settings.spacing, stencil=stencil)
         if keep:
-            band.kept = RunCache()      # the diffusion's operators stay with the band
+            band.memo = RunCache()      # the diffusion's operators stay with the band
         return band
 
     band = cache.get("band", (shape, settings.spacing, stencil), new_band)
@@ -380,7 +403,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     texels = cache.get("texels", layout,
                        lambda: tuple(read_only(a) for a in atlas_points(mesh, atlas, settings.margin)))
     matrix = None
-    if band.kept is not None and len(texels[0]) <= KEEP_BAKE_TEXELS:
+    if band.memo is not None and len(texels[0]) <= KEEP_BAKE_TEXELS:
         matrix = band.structure("bake_out", (layout, result.dtype.str),
                                 lambda: bake_matrix(band, texels, result.dtype, progress=lambda f: report(0.95)))
     baked = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, paint=paint,

@@ -61,10 +61,10 @@ def structure_tensor(band, channels, sigma, rho, gradients, *, dt, progress=None
     """``J_{sigma,rho}`` (6, N) of band values given as rows (C, N) (Algorithm 1, steps 2-4)."""
     smoothed = channels.copy()
     report = None if progress is None else (lambda f: progress(0.2 * f))
-    heat_rows(band, smoothed, sigma, dt=dt, progress=report)
+    heat_rows(band, smoothed, sigma, tau=dt, progress=report)
     J = outer_products(band, smoothed, gradients)
     report = None if progress is None else (lambda f: progress(0.2 + 0.8 * f))
-    heat_rows(band, J, rho, dt=dt, progress=report)
+    heat_rows(band, J, rho, tau=dt, progress=report)
     return J
 
 

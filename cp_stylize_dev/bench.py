@@ -317,8 +317,8 @@ def heat_steps(spacings=(0.05, 0.025), steps=20, repeat=3, log=print):
         grey = band.cp[:, 2].astype(np.float32)
         rgb = np.repeat(grey[:, None], 3, axis=1)
         dt = 0.1 * h * h
-        t1 = _best(lambda: heat(band, grey, steps * dt, dt=dt), repeat) / steps
-        t3 = _best(lambda: heat(band, rgb, steps * dt, dt=dt), repeat) / steps
+        t1 = _best(lambda: heat(band, grey, steps * dt, tau=dt), repeat) / steps
+        t3 = _best(lambda: heat(band, rgb, steps * dt, tau=dt), repeat) / steps
         rows.append((h, band.size, build, t1, t3))
         log(f"{h:7.4f} {band.size:12,d} {build:8.2f} {1e3 * t1:15.2f} {1e3 * t3:15.2f}")
     return rows

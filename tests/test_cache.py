@@ -7,7 +7,7 @@ from cp_stylize import Torus
 from cp_stylize.cache import RunCache, digest
 from cp_stylize.mesh import parametric_mesh
 from cp_stylize.estimate import estimate_run
-from cp_stylize.pipeline import ColourInput, Texture, stylize
+from cp_stylize.pipeline import ColourInput, Texture, decide_atlas, stylize
 from cp_stylize.presets import load_preset
 
 #: every part a run on a textured mesh with detail builds before its filter
@@ -67,6 +67,22 @@ def test_a_moved_vertex_or_a_new_grid_builds_the_band_again(scene):
     np.testing.assert_array_equal(result.image, _run(scene, finer, vertices=moved).image)
 
 
+def test_an_atlas_decided_before_the_run_is_the_runs_own(scene):
+    """The add-on decides the atlas before the run (to bake procedural colours into it): the run takes
+    that one from the cache, and it is the atlas a run on its own would make, on the mesh at any scale."""
+    v, faces, uvs, colours = scene
+    settings = _settings()
+    for uv in (uvs, None):                                        # the mesh's own UVs, and a new atlas
+        cache = RunCache()
+        ahead = decide_atlas(100.0 * v, faces, settings.image_size, uv, cache=cache)
+        result = stylize(100.0 * v, faces, colours, settings, uvs=uv, cache=cache)
+        assert "atlas" in cache.reused and result.atlas is ahead
+        alone = stylize(v, faces, colours, settings, uvs=uv).atlas
+        np.testing.assert_allclose(ahead.uvs, alone.uvs, atol=1e-9)
+        np.testing.assert_array_equal(ahead.texels, alone.texels)
+        assert ahead.generated == (uv is None)
+
+
 def test_new_colours_are_read_again(scene):
     cache = RunCache()
     _run(scene, _settings(), cache)
@@ -117,7 +133,7 @@ def test_a_run_on_another_mesh_drops_every_kept_part_first(scene):
     band = cache._parts["band"][1]
     held = cache.nbytes()
     # the band's own arrays and matrices, and the bake-out's interpolation kept with it, are counted once
-    bake_out = sum(b.data.nbytes + b.indices.nbytes for b in band.kept._parts["bake_out"][1].blocks)
+    bake_out = sum(b.data.nbytes + b.indices.nbytes for b in band.memo._parts["bake_out"][1].blocks)
     assert held > band.ijk.nbytes + band.cp.nbytes + band.E.data.nbytes + bake_out
     # and what is kept stays below the run's own estimated peak
     assert held < estimate_run(band.size, _settings(), 3, len(scene[1]))[1]

@@ -109,31 +109,31 @@ class Applied:
 
 # -- what runs keep for the next ---------------------------------------------------------------
 
-_kept = None            # a cp_stylize.cache.RunCache, made by the first run
-_kept_bytes = 0         # what it held after the last run
+_cache = None            # a cp_stylize.cache.RunCache, made by the first run
+_cache_bytes = 0         # what it held after the last run
 
 
-def kept():
+def run_cache():
     """The :class:`~cp_stylize.cache.RunCache` runs share (made on first use)."""
-    global _kept
-    if _kept is None:
+    global _cache
+    if _cache is None:
         from ..cache import RunCache
 
-        _kept = RunCache()
-    return _kept
+        _cache = RunCache()
+    return _cache
 
 
 def kept_bytes():
     """Bytes the parts kept for re-runs held after the last run (0 when nothing is kept)."""
-    return _kept_bytes if _kept is not None and len(_kept) else 0
+    return _cache_bytes if _cache is not None and len(_cache) else 0
 
 
 def release():
     """Free everything kept for re-runs."""
-    global _kept_bytes
-    if _kept is not None:
-        _kept.clear()
-    _kept_bytes = 0
+    global _cache_bytes
+    if _cache is not None:
+        _cache.clear()
+    _cache_bytes = 0
 
 
 # -- checks ----------------------------------------------------------------------------------
@@ -296,16 +296,11 @@ def input_pixels(obj, uv_names, slots, settings):
 
 
 def _atlas(mesh, settings, keep, uvs, allow_new):
-    """The output atlas for the UVs ``uvs`` (or a new one), kept for re-runs like the core's own parts."""
-    from ..atlas import uv_atlas
-    from ..cache import RunCache, digest
-    from ..mesh import TriangleMesh
+    """The output atlas for the UVs ``uvs`` (or a new one), kept for the run and re-runs like the core's own parts."""
+    from ..pipeline import decide_atlas
 
-    cache = kept() if keep else RunCache()
-    cache.start(digest(mesh.vertices, mesh.triangles))      # the key of the core's own parts
-    return cache.get("output_atlas", (digest(uvs), settings.image_size, allow_new),
-                     lambda: uv_atlas(TriangleMesh(mesh.vertices, mesh.triangles), settings.image_size, uvs,
-                                      allow_new=allow_new))
+    return decide_atlas(mesh.vertices, mesh.triangles, settings.image_size, uvs, new_atlas=allow_new,
+                        cache=run_cache() if keep else None)
 
 
 def _no_atlas_message(name, err):
@@ -471,8 +466,8 @@ def run_core(job, progress=None, log=None):
     from ..atlas import UnusableUVs
     from ..pipeline import stylize
 
-    global _kept_bytes
-    cache = kept() if job.output.keep else None
+    global _cache_bytes
+    cache = run_cache() if job.output.keep else None
     try:
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,
                              atlas=job.atlas, new_atlas=job.new_atlas, directions=job.mesh.directions,
@@ -481,7 +476,7 @@ def run_core(job, progress=None, log=None):
         raise StylizeError(_no_atlas_message(job.object_name, UnusableUVs(err.problems, err.why or job.no_atlas))) \
             from None
     finally:
-        _kept_bytes = 0 if cache is None else cache.nbytes()
+        _cache_bytes = 0 if cache is None else cache.nbytes()
     job.reused = [] if cache is None else list(cache.reused)
     return job.result
 

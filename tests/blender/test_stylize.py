@@ -353,18 +353,18 @@ def test_a_re_run_reuses_the_band_and_gives_a_fresh_runs_image(addon, capfd):
     assert stylize.kept_bytes() > 10 * 2**20
     addon.time = 4e-4                                          # a new filter parameter, the same mesh and grid
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
-    assert {"mesh", "band", "texels", "sampled"} <= set(stylize.kept().reused)
+    assert {"mesh", "band", "texels", "sampled"} <= set(stylize.run_cache().reused)
     again = _pixels(bpy.data.images["Ball_stylized"]).copy()
     bpy.ops.cp_stylize.release()
-    assert stylize.kept_bytes() == 0 and len(stylize.kept()) == 0
+    assert stylize.kept_bytes() == 0 and len(stylize.run_cache()) == 0
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
-    assert stylize.kept().reused == []
+    assert stylize.run_cache().reused == []
     np.testing.assert_array_equal(_pixels(bpy.data.images["Ball_stylized"]), again)
     # an edited mesh is read afresh
     obj.data.vertices[0].co.z += 0.2
     obj.data.update()
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
-    assert "band" not in stylize.kept().reused and "mesh" not in stylize.kept().reused
+    assert "band" not in stylize.run_cache().reused and "mesh" not in stylize.run_cache().reused
     # loading a file frees what was kept
     assert stylize.kept_bytes() > 0
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -380,5 +380,5 @@ def test_without_keep_a_run_keeps_nothing_and_frees_what_was_kept(addon):
     assert stylize.kept_bytes() > 0
     addon.keep = False
     assert bpy.ops.object.cp_stylize() == {"FINISHED"}
-    assert stylize.kept_bytes() == 0 and len(stylize.kept()) == 0
+    assert stylize.kept_bytes() == 0 and len(stylize.run_cache()) == 0
     assert bpy.ops.cp_stylize.release.poll() is False          # nothing to free
