@@ -63,7 +63,8 @@ def main(argv=None):
     p = sub.add_parser("looks", help="measure the presets' looks on the photo sphere, Suzanne and a city photograph (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")
     p.set_defaults(func=_looks)
-    p = sub.add_parser("docs", help="write the README's parameter tables from cp_stylize/parameters.py")
+    p = sub.add_parser("docs", help="write the user guide's parameter tables (docs/blender.md) from "
+                                    "cp_stylize/parameters.py")
     p.set_defaults(func=_docs)
     args = parser.parse_args(argv)
     args.func(args)

@@ -3,8 +3,8 @@
 :func:`estimate` reads only the mesh's size and the settings (no band is
 built); :func:`estimate_run` gives the seconds and bytes of a run of a given
 number of band points.  The constants are rough costs measured on a 2-core
-machine (``python -m cp_stylize bench`` and the README's Performance
-section); :mod:`cp_stylize.calibration` scales the seconds by this machine's
+machine (``python -m cp_stylize bench`` and docs/performance.md);
+:mod:`cp_stylize.calibration` scales the seconds by this machine's
 speed.
 """
 
@@ -22,7 +22,7 @@ __all__ = ["RunEstimate", "estimate", "estimate_run"]
 
 
 #: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
-#: the README's Performance section (fast scheme): seconds per band point to build the band and
+#: docs/performance.md (fast scheme): seconds per band point to build the band and
 #: the scheme's operators and to bake in and out ...
 SECONDS_SETUP_PER_POINT = {"gaussian": 2.7e-6, "other": 3.6e-6}
 #: ... per band point and colour channel for one step (an extension and a stencil product) ...

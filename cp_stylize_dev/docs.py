@@ -1,7 +1,9 @@
-"""The README's parameter tables, written from :mod:`cp_stylize.parameters`.
+"""The user guide's parameter tables, written from :mod:`cp_stylize.parameters`.
 
 ``python -m cp_stylize docs`` rewrites the block between the two markers in
-README.md; a test checks that the README holds what this module writes.
+docs/blender.md (:data:`SETTINGS`); a test checks that the guide holds what
+this module writes, and that docs/api.md (:data:`API`) gives the main
+functions' signatures as they are.
 """
 
 from __future__ import annotations
@@ -13,7 +15,10 @@ from cp_stylize.parameters import FILTER_PARAMETERS, FILTERS, RUN
 
 BEGIN = "<!-- parameters: written by `python -m cp_stylize docs` from cp_stylize/parameters.py -->"
 END = "<!-- end of parameters -->"
-README = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")
+_DOCS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs")
+#: The Blender user guide, which holds the parameter tables, and the library's reference.
+SETTINGS = os.path.join(_DOCS, "blender.md")
+API = os.path.join(_DOCS, "api.md")
 
 UNITS = {"time": "time (length²)", "length": "length", "ratio": "ratio", "count": "count"}
 
@@ -43,19 +48,19 @@ def tables():
 
 
 def block():
-    """The README's generated block, markers included."""
+    """The guide's generated block, markers included."""
     return f"{BEGIN}\n\n{tables()}\n\n{END}"
 
 
 def written(text):
-    """``text`` (a README) with its generated block replaced by :func:`block`."""
+    """``text`` (the guide) with its generated block replaced by :func:`block`."""
     pattern = re.compile(re.escape(BEGIN) + ".*?" + re.escape(END), re.S)
     if len(pattern.findall(text)) != 1:
-        raise ValueError("README.md must hold the parameter block's two markers once")
+        raise ValueError(f"{os.path.basename(SETTINGS)} must hold the parameter block's two markers once")
     return pattern.sub(lambda _: block(), text)
 
 
-def run(path=README, log=print):
+def run(path=SETTINGS, log=print):
     with open(path, encoding="utf-8") as f:
         text = f.read()
     new = written(text)

@@ -1,18 +1,14 @@
 """Heat flow on the unit sphere with the closest point method, step by step.
 
-Run from the repository root:  python examples/heat_sphere.py
+Run:  python examples/heat_sphere.py   (the README's set-up installs cp_stylize)
 
 The function u0 = z is an eigenfunction of the Laplace-Beltrami operator on the
 unit sphere (eigenvalue -2), so the exact solution is u(t) = exp(-2 t) z.
 """
 
-import os
-import sys
-
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from cp_stylize import Band, Sphere  # noqa: E402
+from cp_stylize import Band, Sphere
 
 # 1. The surface is its closest point function.
 surface = Sphere(radius=1.0)

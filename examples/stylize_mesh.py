@@ -1,6 +1,6 @@
 """Smooth a texture on a triangle mesh and bake it into a UV atlas, step by step.
 
-Run from the repository root:  python examples/stylize_mesh.py [out.png]
+Run:  python examples/stylize_mesh.py [out.png]   (the README's set-up installs cp_stylize)
 
 The mesh is a torus triangulated with NumPy (no Blender needed).  Its texture
 is a noisy checkerboard in UV space; the heat equation smooths it on the
@@ -8,19 +8,14 @@ surface itself, so the result has no seams and no stretching where the UV
 map is distorted.
 """
 
-import os
 import sys
 import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from cp_stylize import Band, Torus, heat  # noqa: E402
-from cp_stylize.atlas import uv_atlas  # noqa: E402
-from cp_stylize.baking import bake_to_atlas  # noqa: E402
-from cp_stylize.sampling import sample_texture  # noqa: E402
-from cp_stylize.mesh import TriangleMesh, parametric_mesh  # noqa: E402
-from cp_stylize.texture import texel_centres, write_png  # noqa: E402
+from cp_stylize import (Band, Torus, TriangleMesh, bake_to_atlas, heat, parametric_mesh, sample_texture, uv_atlas,
+                        write_png)
+from cp_stylize.texture import texel_centres
 
 out = sys.argv[1] if len(sys.argv) > 1 else "stylize_mesh.png"
 start = time.perf_counter()
@@ -50,7 +45,7 @@ values = sample_texture(band, uvs, image)
 
 # 4. Smooth on the surface: heat flow to time t (evolve with the 7-point
 #    Laplacian, extend by tricubic interpolation at the closest points).
-smoothed = heat(band, values, t=2e-3)
+smoothed = heat(band, values, T=2e-3)
 
 # 5. Texture out: the mesh's own UVs are usable here (inside [0, 1], no
 #    overlaps); uv_atlas would unwrap with xatlas otherwise.

@@ -1,4 +1,5 @@
-"""The README's parameter tables are the ones cp_stylize/parameters.py gives, and its signatures the code's."""
+"""The user guide's parameter tables are the ones cp_stylize/parameters.py gives, and the library reference's
+signatures the code's."""
 
 import importlib
 import inspect
@@ -10,10 +11,10 @@ from cp_stylize.parameters import FILTER_PARAMETERS, FILTERS, RUN
 from cp_stylize_dev import docs
 
 
-def test_the_readme_holds_the_tables_of_the_parameter_table():
-    with open(docs.README, encoding="utf-8") as f:
+def test_the_user_guide_holds_the_tables_of_the_parameter_table():
+    with open(docs.SETTINGS, encoding="utf-8") as f:
         text = f.read()
-    assert docs.block() in text, "README.md is out of date: run `python -m cp_stylize docs`"
+    assert docs.block() in text, "docs/blender.md is out of date: run `python -m cp_stylize docs`"
 
 
 def test_every_parameter_has_a_row_with_its_limits_and_each_modes_default():
@@ -35,9 +36,9 @@ def test_writing_replaces_only_the_block():
 
 @pytest.mark.parametrize("name", ["cp_stylize.diffusion.diffuse", "cp_stylize.baking.bake_to_atlas",
                                   "cp_stylize.pipeline.stylize"])
-def test_the_readme_gives_the_signatures_of_the_main_functions_as_they_are(name):
+def test_the_library_reference_gives_the_signatures_of_the_main_functions_as_they_are(name):
     module, function = name.rsplit(".", 1)
     signature = str(inspect.signature(getattr(importlib.import_module(module), function))).replace("'", '"')
-    with open(docs.README, encoding="utf-8") as f:
-        text = re.sub(r"\s+", " ", f.read())          # the README wraps a signature over its lines
-    assert f"{function}{signature}" in text, f"README.md gives an older signature of {name}: {function}{signature}"
+    with open(docs.API, encoding="utf-8") as f:
+        text = re.sub(r"\s+", " ", f.read())          # the reference wraps a signature over its lines
+    assert f"{function}{signature}" in text, f"docs/api.md gives an older signature of {name}: {function}{signature}"
