@@ -228,7 +228,7 @@ def atlas_points(mesh, atlas, margin):
     points = np.empty((len(texels), 3))
     faces = np.empty(len(texels), dtype=np.int64)
     barys = np.empty((len(texels), 3))
-    faces[:n], barys[:n] = atlas.face, atlas.bary          # which sheet each point is on (Band._one_sheet)
+    faces[:n], barys[:n] = atlas.face, atlas.bary          # which sheet each point is on (Sheets.keep_to_own)
     kept = mesh.kept_index(atlas.face)
 
     def covered(s):                                        # in blocks: no (M, 3, 3) corners at once

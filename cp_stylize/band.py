@@ -37,6 +37,7 @@ import itertools
 import numpy as np
 import scipy.sparse as sp
 
+from .sheets import Sheets
 from .sparse import SplitMatrix, map_parallel
 
 __all__ = ["Band", "band_width", "estimate_band_size", "flat_index", "STENCILS", "lagrange_weights"]
@@ -192,11 +193,14 @@ class Band:
         #: the memo of the structures runs build from the band (:meth:`structure`): a
         #: :class:`~cp_stylize.cache.RunCache` set where the band is kept for further runs; None: none kept
         self.memo = None
-        self.normals, self.pieces = _sheet_keys(surface, self.cp, self.face, self.bary)
-        self._normal_columns = None
+        #: what tells the surface's sheets apart at the band's points (None for surfaces without normals)
+        self.sheets = Sheets.of(surface, self.h, self.degree, self.cp, self.face, self.bary)
+        self.normals = None if self.sheets is None else self.sheets.normals
+        self.pieces = None if self.sheets is None else self.sheets.pieces
         moved = []
         self.E = self._interpolation_matrix(self.cp, np.float32, self.normals, self.pieces, moved)
-        #: band points whose extension keeps to their own sheet with trilinear weights (see :meth:`_one_sheet`)
+        #: band points whose extension keeps to their own sheet with trilinear weights
+        #: (:meth:`cp_stylize.sheets.Sheets.keep_to_own`)
         self.separated = int(sum(moved))
         self.inner = np.zeros(self.size, dtype=bool)
         self.inner[self.E.indices] = True
@@ -341,9 +345,9 @@ class Band:
             corner = np.where(inside, self._flat(rel), 0).astype(index.dtype)
             np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
             indices[s:e][~inside] = -1
-            if normals is not None and self.normals is not None:
-                n = self._one_sheet(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
-                                    normals[s:e], None if pieces is None else pieces[s:e], corner)
+            if normals is not None and self.sheets is not None:
+                n = self.sheets.keep_to_own(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
+                                            normals[s:e], None if pieces is None else pieces[s:e], corner)
                 if moved is not None:
                     moved.append(n)     # list.append is atomic: the chunks run on several threads
 
@@ -357,114 +361,11 @@ class Band:
         indptr = np.arange(0, n_w * len(x) + 1, n_w, dtype=np.int64)
         return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(len(x), self.size))
 
-    def _other_sheet(self, nodes, x, normals, pieces):
-        """Whether the band points ``nodes`` (M, K; -1 for none) lie on another sheet than the surface
-        points ``x`` (M, 3) with ``normals`` (and ``pieces``): (M, K) bool.  See :meth:`_one_sheet`."""
-        safe = np.maximum(nodes, 0)
-        nx, ny, nz = self._normals_by_axis()   # single precision, by component: (M, K) gathers only
-        q = np.asarray(normals, dtype=np.float32)
-        dot = nx[safe] * q[:, 0:1]
-        dot += ny[safe] * q[:, 1:2]
-        dot += nz[safe] * q[:, 2:3]
-        facing = dot < 0.0
-        other = np.zeros(safe.shape, dtype=bool)
-        rows = np.flatnonzero(facing.any(axis=1))
-        offset = np.einsum("ikj,ij->ik", self.cp[safe[rows]] - x[rows, None, :], normals[rows])
-        other[rows] = facing[rows] & (np.abs(offset) > 0.5 * self.h)
-        if pieces is not None:
-            other |= self.pieces[safe] != pieces[:, None]
-        other &= nodes >= 0
-        return other
-
     def cut_links(self, nodes, rows=slice(None)):
-        """Which finite difference links cross between sheets: (M, K) bool for the band points ``rows``
-        (an index or mask) and their neighbours ``nodes`` (M, K), or None for surfaces without normals.
-
-        The operators drop these links (their rows still sum to zero), so
-        that the sheets of a surface that comes back near itself exchange
-        nothing; see :meth:`_one_sheet`.
-        """
-        if self.normals is None:
-            return None
-        rows = np.arange(self.size)[rows]
-        out = np.empty(nodes.shape, dtype=bool)
-        for s in range(0, len(rows), _CHUNK):       # in blocks: its temporaries are (block, K) arrays
-            part, r = slice(s, s + _CHUNK), rows[s:s + _CHUNK]
-            out[part] = self._other_sheet(nodes[part], self.cp[r], self.normals[r],
-                                          None if self.pieces is None else self.pieces[r])
-        return out
-
-    def _normals_by_axis(self):
-        """The band points' normals as three contiguous single-precision rows (made once)."""
-        if self._normal_columns is None:
-            self._normal_columns = np.ascontiguousarray(self.normals.T, dtype=np.float32)
-        return self._normal_columns
-
-    def _may_cross(self, indices, corner, normals, pieces):
-        """Which stencils (M,) might hold a point of another sheet than their surface point (see
-        :meth:`_one_sheet`); the others surely do not, and skip the sheet test.
-
-        Per distinct stencil (``corner``): the mean ``m`` of its points' unit
-        normals and the widest angle ``theta`` between ``m`` and any of them.
-        A surface point whose normal ``q`` lies within ``90 - theta`` degrees of
-        ``m`` (``q.m > sin theta``, with a margin) makes an acute angle with every
-        normal of the stencil, so no point faces the other way; with every point
-        on the surface point's own piece, none is on another sheet.
-        """
-        cells, first, which = np.unique(corner, return_index=True, return_inverse=True)
-        safe = np.maximum(indices[first], 0)                    # (U, K); missing points only widen the cone
-        columns = [c[safe] for c in self._normals_by_axis()]    # n_x, n_y, n_z (U, K), single precision
-        m = np.stack([c.sum(axis=1) for c in columns], axis=1)
-        m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-30)
-        spread = np.min(columns[0] * m[:, 0:1] + columns[1] * m[:, 1:2] + columns[2] * m[:, 2:3], axis=1)
-        reach = np.where(spread > 0, np.sqrt(np.maximum(1.0 - spread * spread, 0.0)), np.inf) + 1e-3
-        q = np.asarray(normals, dtype=np.float32)
-        clean = np.einsum("ij,ij->i", q, m[which.ravel()]) > reach[which.ravel()]
-        if pieces is not None:
-            piece = self.pieces[safe[:, 0]]
-            alike = np.all(self.pieces[safe] == piece[:, None], axis=1)
-            clean &= alike[which.ravel()] & (pieces == piece[which.ravel()])
-        return ~clean
-
-    def _one_sheet(self, data, indices, x, t, nodes, normals, pieces, corner=None):
-        """Keep each interpolation stencil on the sheet of the surface its point lies on (in place).
-
-        Where a surface comes back near itself (the two sides of a thin ear,
-        an eyelid over an eyeball), one stencil can hold grid points whose
-        closest points lie on another sheet: far away along the surface but
-        near in space.  Their values would leak across, and the negative
-        tricubic weights next to such a jump make the repeated extension grow
-        them.  A stencil point is on another sheet if its closest point lies
-        on another connected piece of a mesh, or if its normal faces the other
-        way and its closest point lies off the tangent plane at ``x`` by more
-        than h / 2 (so a patch of flipped faces is not cut off from its
-        neighbours).  Rows that hold such a point get trilinear weights on
-        the same-sheet corners of the grid cell around ``x``, renormalised:
-        non-negative, so the extension there is monotone, at second order
-        instead of fourth.  Rows whose cell has no same-sheet corner keep
-        their weights (the sheets are closer than the grid can tell apart).
-        ``nodes`` (64, 3) are the stencil's offsets in the order of its
-        weights.  Returns the number of rows changed.
-        """
-        p = self.degree
-        test = np.arange(len(indices)) if corner is None else np.flatnonzero(
-            self._may_cross(indices, corner, normals, pieces))
-        other = self._other_sheet(indices[test], x[test], normals[test], None if pieces is None else pieces[test])
-        rows = np.flatnonzero(other.any(axis=1) & (indices[test].min(axis=1) >= 0))
-        other = other[rows]
-        rows = test[rows]
-        if not len(rows):
-            return 0
-        lower = (p - 1) // 2                      # the cell's corners are nodes lower and lower + 1 per axis
-        w = np.ones((len(rows), len(nodes)))
-        for a in range(3):
-            ta = t[rows, a][:, None]
-            w *= np.where(nodes[:, a] == lower, 1.0 - ta, np.where(nodes[:, a] == lower + 1, ta, 0.0))
-        w[other] = 0.0
-        total = w.sum(axis=1)
-        keep = total > 1e-3
-        data[rows[keep]] = w[keep] / total[keep, None]
-        return int(keep.sum())
+        """Which finite difference links cross between sheets (:meth:`cp_stylize.sheets.Sheets.cut_links`):
+        (M, K) bool for the band points ``rows`` and their neighbours ``nodes`` (M, K), or None for
+        surfaces without normals."""
+        return None if self.sheets is None else self.sheets.cut_links(nodes, rows)
 
     def interpolation_matrix(self, x, dtype=np.float32, normals=None, pieces=None):
         """Sparse (M, N) matrix that interpolates band values at surface points ``x`` (M, 3).
@@ -473,7 +374,7 @@ class Band:
         grid points around ``x``.  Given the surface's unit ``normals`` at ``x``
         (M, 3), and for meshes the ``pieces`` (M,) of their faces
         (``surface.piece[face]``), each row keeps to the sheet of the surface
-        ``x`` lies on, as the extension E does (see :meth:`_one_sheet`).
+        ``x`` lies on, as the extension E does (see :meth:`cp_stylize.sheets.Sheets.keep_to_own`).
         Raises ValueError where a stencil leaves the band.
         """
         if normals is not None:
@@ -572,19 +473,6 @@ class Band:
         if v.ndim not in (1, 2) or v.shape[0] != self.size:
             raise ValueError(f"band values must have shape ({self.size},) or ({self.size}, k), got {v.shape}")
         return v.astype(_float_type(v.dtype), copy=False)
-
-
-def _sheet_keys(surface, cp, face, bary):
-    """What tells the sheets of a surface apart at closest points ``cp``: the surface's own unit normals
-    (N, 3) (read-only; :func:`cp_stylize.tangent.surface_normals` hands them out), or None for surfaces
-    without normals, and for triangle meshes the connected piece of each point's face."""
-    normal = getattr(surface, "normal", None)
-    if normal is None:
-        return None, None
-    n = np.array(normal(cp, face, bary) if face is not None else normal(cp), dtype=np.float64)
-    n.setflags(write=False)
-    piece = getattr(surface, "piece", None)
-    return n, None if piece is None or face is None else piece[face]
 
 
 def flat_index(rel, shape):

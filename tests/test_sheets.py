@@ -1,4 +1,4 @@
-"""Sheets of a surface that come near each other in space stay apart in the band (Band._one_sheet)."""
+"""Sheets of a surface that come near each other in space stay apart in the band (cp_stylize.sheets)."""
 
 import itertools
 
