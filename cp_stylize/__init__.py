@@ -23,7 +23,7 @@ _PUBLIC = {"Band": "band", "band_width": "band", "MODES": "parameters", "diffuse
            "TriangleMesh": "mesh", "parametric_mesh": "mesh", "Sphere": "surfaces", "Torus": "surfaces",
            "Ellipsoid": "surfaces", "sample_texture": "sampling", "ColourInput": "sampling", "Texture": "sampling",
            "uv_atlas": "atlas", "bake_to_atlas": "baking", "write_png": "texture", "stylize": "pipeline",
-           "StylizeResult": "pipeline", "RunCache": "cache", "StylizeSettings": "presets", "load_preset": "presets",
+           "StylizeResult": "pipeline", "RunCache": "cache", "StylizeSettings": "settings", "load_preset": "presets",
            "builtin_presets": "presets"}
 
 __all__ = sorted(_PUBLIC)

@@ -3,7 +3,7 @@
 Every number a user can set is a :class:`Parameter` here, with its label,
 description, limits, unit and (for the run's own) its key in a preset file.  :data:`FILTERS` says which filter parameters
 each mode takes and their defaults.  The core's validation
-(:class:`~cp_stylize.presets.StylizeSettings`, so preset files too), the
+(:class:`~cp_stylize.settings.StylizeSettings`, so preset files too), the
 add-on's properties and panel, and the user guide's tables (docs/blender.md) are all built from
 these, so a new parameter or mode is an edit in this file.
 

@@ -1,9 +1,8 @@
-"""Stylization settings and presets (TOML files).
+"""Presets: a run's settings (:class:`~cp_stylize.settings.StylizeSettings`) in TOML files.
 
-All settings of a run travel as one frozen :class:`StylizeSettings`.  Lengths
-and times are relative to the object's size: the object is normalised so that
-its diameter is 2 (as in the paper: a sphere of radius 1), so a preset looks the same on a 2 cm
-object and on a 20 m one.
+Lengths and times are relative to the object's size: the object is normalised
+so that its diameter is 2 (as in the paper: a sphere of radius 1), so a preset
+looks the same on a 2 cm object and on a 20 m one.
 
 A preset is a TOML file (see ``presets/`` at the top of the repository and of
 the extension)::
@@ -51,281 +50,21 @@ and never over another preset.
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import numbers
 import os
 import tempfile
 import tomllib
-from collections.abc import Mapping
 
-from .parameters import (DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, SEED_LIMITS,
-                         check_value)
+from .parameters import FILTER_PARAMETERS, RUN
+from .settings import StylizeSettings, check_colour, check_fields, check_parameter, is_number
 
 __all__ = ["StylizeSettings", "load_preset", "save_preset", "builtin_presets", "PRESET_DIR", "parse_hex",
            "preset_paths", "find_preset", "preset_key", "preset_label", "save_user_preset", "remove_user_preset"]
 
-#: The presets shipped with cp_stylize.
-PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets")
-
-_PARAMS = tuple(FILTER_PARAMETERS)
-
-#: The parameters that are times: they scale with the square of the object's size.
-_TIMES = {p.name for p in (*RUN.values(), *FILTER_PARAMETERS.values()) if p.unit == "time"}
-
-#: Output image sizes a run may ask for, in texels a side.
-IMAGE_SIZES = (16, 8192)
-#: Margins a run may ask for, in texels.
-MARGINS = (0, 256)
 #: The longest name a saved preset may have, in characters.
 NAME_LENGTH = 64
 
-
-class _Params(Mapping):
-    """The filter parameters of a :class:`StylizeSettings`: a read-only, hashable mapping."""
-
-    __slots__ = ("_values",)
-
-    def __init__(self, values):
-        self._values = dict(values)
-
-    def __getitem__(self, name):
-        return self._values[name]
-
-    def __iter__(self):
-        return iter(self._values)
-
-    def __len__(self):
-        return len(self._values)
-
-    def __hash__(self):
-        return hash(frozenset(self._values.items()))
-
-    def __repr__(self):
-        return repr(self._values)
-
-
-# -- one check a field: each returns the value it accepts, or raises ValueError naming ``label`` ---------
-
-
-def _text(label, value):
-    if not isinstance(value, str):
-        raise ValueError(f"{label} must be text, got {value!r}")
-    return value
-
-
-def _choice(choices, *, optional=False):
-    def check(label, value):
-        if optional and value is None:
-            return None
-        if not isinstance(value, str) or value not in choices:
-            raise ValueError(f"{label} must be one of {list(choices)}, got {value!r}")
-        return value
-    return check
-
-
-def _whole(low, high):
-    def check(label, value):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
-            raise ValueError(f"{label} must be a whole number in [{low}, {high}], got {value!r}")
-        return int(value)
-    return check
-
-
-def _parameter(parameter):
-    if parameter.unit == "count":
-        return _whole(int(parameter.minimum), int(parameter.maximum))
-    return lambda label, value: check_value(label, value, parameter.minimum, parameter.maximum)
-
-
-def _real(value):
-    return not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(value)
-
-
-def _axis(label, value):
-    try:
-        axis = tuple(float(a) for a in value) if not isinstance(value, str) else ()
-    except (TypeError, ValueError):
-        axis = ()
-    if len(axis) != 3 or not all(_real(a) for a in value) or not any(axis):
-        raise ValueError(f"{label} must be three finite numbers, not all zero, got {value!r}")
-    return axis
-
-
-def _colours(label, value):
-    colours = tuple(tuple(c) if isinstance(c, (tuple, list)) else c for c in value) \
-        if isinstance(value, (tuple, list)) else None
-    if colours is None or not all(isinstance(c, tuple) and len(c) == 3 and all(_real(x) and 0 <= x <= 1 for x in c)
-                                  for c in colours):
-        raise ValueError(f"{label} must be colours of three numbers in [0, 1], got {value!r}")
-    return tuple(tuple(float(x) for x in c) for c in colours)
-
-
-def _weights(label, value):
-    if not isinstance(value, (tuple, list)) or not all(_real(w) and w >= 0 for w in value):
-        raise ValueError(f"{label} must be numbers of at least 0, one a colour, got {value!r}")
-    return tuple(float(w) for w in value)
-
-
-def _params(label, value):
-    if not isinstance(value, Mapping):
-        raise ValueError(f"{label} must be a table of filter parameters ({', '.join(_PARAMS)}), got {value!r}")
-    unknown = sorted(set(value) - set(FILTER_PARAMETERS), key=str)
-    if unknown:
-        raise ValueError(f"unknown filter parameter(s) {unknown}; known: {list(FILTER_PARAMETERS)}")
-    problems, params = [], {}
-    for name, v in value.items():
-        if v is not None:
-            try:
-                params[name] = FILTER_PARAMETERS[name].check(v)
-            except ValueError as err:
-                problems.append(str(err))
-    if problems:
-        raise ValueError("; ".join(problems))
-    return _Params(params)
-
-
-#: How each field of :class:`StylizeSettings` is checked (its limits: :mod:`cp_stylize.parameters`).
-_CHECKS = {
-    "mode": _choice(MODES),
-    **{name: _parameter(parameter) for name, parameter in RUN.items()},
-    "params": _params,
-    "noise_mapping": _choice(NOISE_MAPPINGS),
-    "palette": _colours,
-    "palette_weights": _weights,
-    "seed": _whole(*SEED_LIMITS),
-    "direction": _choice(DIRECTIONS, optional=True),
-    "axis": _axis,
-    "attribute": _text,
-    "image_size": _whole(*IMAGE_SIZES),
-    "margin": _whole(*MARGINS),
-    "name": _text,
-    "description": _text,
-}
-
-
-def _checked(values, labels):
-    """``values`` ({field: value}) each checked, and the messages of those that are bad (``labels`` names them)."""
-    good, problems = {}, []
-    for field, value in values.items():
-        try:
-            good[field] = _CHECKS[field](labels.get(field, field), value)
-        except ValueError as err:
-            problems.append(str(err))
-    return good, problems
-
-
-@dataclasses.dataclass(frozen=True)
-class StylizeSettings:
-    """Everything a stylization run needs, relative to an object whose diameter is 2.
-
-    Every field is checked when the settings are made: a ValueError names each
-    bad one, what it must be and what it got.
-    """
-
-    mode: str = "ced"
-    # the run's numbers default to the parameter table's (cp_stylize.parameters.RUN)
-    T: float = RUN["T"].default
-    spacing: float = RUN["spacing"].default
-    params: Mapping = dataclasses.field(default_factory=dict)   # filter parameters set; the mode's defaults fill in
-    noise_fraction: float = RUN["noise_fraction"].default
-    noise_mapping: str = "random"   # see NOISE_MAPPINGS
-    noise_spread: float = RUN["noise_spread"].default
-    detail: float = RUN["detail"].default          # the texture's own detail laid back (baking.lay_detail)
-    strokes: float = RUN["strokes"].default        # brush strokes over the result (cp_stylize.strokes)
-    stroke_length: float = RUN["stroke_length"].default
-    stroke_width: float = RUN["stroke_width"].default
-    stroke_layers: int = RUN["stroke_layers"].default
-    stroke_chain: int = RUN["stroke_chain"].default
-    stroke_jitter: float = RUN["stroke_jitter"].default
-    swirl: float = RUN["swirl"].default
-    fidelity: float = RUN["fidelity"].default      # mapping "tone": how much of the picture's own colours
-    keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
-    contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
-    relief: float = RUN["relief"].default          # the strokes' height, as a second image
-    palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
-    palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
-    seed: int = 0                   # a whole number in SEED_LIMITS
-    direction: str | None = None    # CED and Flow: see DIRECTIONS; None: the mode's own (stroke_direction)
-    axis: tuple = (0.0, 0.0, 1.0)   # direction "axis", in the object's space
-    attribute: str = ""             # direction "attribute": the mesh's vector attribute, for the add-on
-    image_size: int = 1024
-    margin: int = 16
-    name: str = ""
-    description: str = ""
-
-    def __post_init__(self):
-        """Check every field (the limits are the panel's, :mod:`cp_stylize.parameters`), then how they fit."""
-        values, problems = _checked({f.name: getattr(self, f.name) for f in dataclasses.fields(self)}, {})
-        if problems:
-            raise ValueError("; ".join(problems))
-        if values["palette"] and not values["palette_weights"]:
-            values["palette_weights"] = (1.0,) * len(values["palette"])      # all alike
-        for field, value in values.items():
-            object.__setattr__(self, field, value)
-        self._check_palette()
-        self._check_direction()
-
-    def _check_palette(self):
-        if self.noise_on and not self.palette:
-            raise ValueError("noise needs a palette of at least one colour")
-        if self.palette_weights and len(self.palette_weights) != len(self.palette):
-            raise ValueError(f"palette has {len(self.palette)} colours but {len(self.palette_weights)} weights")
-        if (self.noise_on or self.strokes > 0) and self.palette_weights and not any(self.palette_weights):
-            raise ValueError("the palette's weights are all 0, so no colour could be drawn: give at least one "
-                             "colour a weight above 0")
-
-    def _check_direction(self):
-        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes:
-            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)} and for "
-                             f"brush strokes, not {self.mode!r} without strokes")
-        if self.mode == "flow" and self.direction == "texture":
-            raise ValueError("mode 'flow' draws along a direction field: direction must be one of "
-                             f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")
-
-    @property
-    def noise_on(self):
-        """Whether the run paints with the palette: random noise on some points, or tones mapped on all
-        (either needs a palette, which the checks ask for)."""
-        return self.noise_fraction > 0 or self.noise_mapping == "tone"
-
-    @property
-    def stroke_direction(self):
-        """What the strokes follow: ``direction``, or the mode's own ("min" for Flow, else "texture").
-
-        Always "texture" for the modes that take no direction (the checks refuse any other)."""
-        if self.direction is not None:
-            return self.direction
-        return "min" if self.mode == "flow" else "texture"
-
-    def __getattr__(self, name):
-        """A filter parameter by name (``settings.sigma``): its value, or None if it is not set."""
-        if name in FILTER_PARAMETERS:
-            return self.params.get(name)
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-
-    def diffusion_parameters(self):
-        """Keyword arguments for :func:`cp_stylize.diffuse`, without the band and data."""
-        return {"mode": self.mode, "T": self.T, **self.params}
-
-    def scaled(self, length):
-        """Absolute spacing and diffusion parameters for an object whose diameter is ``length``.
-
-        Lengths scale with ``length / 2`` and times with its square (paper, section 4.5).
-        """
-        s = length / 2.0
-        kw = self.diffusion_parameters()
-        for key, value in kw.items():
-            if key in _TIMES:
-                kw[key] = value * s * s
-        return self.spacing * s, kw
-
-    def replace(self, **changes):
-        """A copy with ``changes``; filter parameters by name (``sigma=...``) change ``params``."""
-        params = {k: changes.pop(k) for k in list(changes) if k in FILTER_PARAMETERS}
-        if params:
-            changes["params"] = {**changes.get("params", self.params), **params}
-        return dataclasses.replace(self, **changes)
+#: The presets shipped with cp_stylize.
+PRESET_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets")
 
 
 def parse_hex(colour):
@@ -364,14 +103,14 @@ _PALETTE_ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1]
 def _palette_colour(value):
     if isinstance(value, str):
         return parse_hex(value)
-    return _colours("colour", [value])[0]
+    return check_colour("colour", value)
 
 
 def _palette_entry(entry):
     """``(colour, weight)`` of one palette entry of a preset file; ValueError if it is none."""
-    if isinstance(entry, list) and len(entry) == 2 and not _real(entry[0]):
+    if isinstance(entry, list) and len(entry) == 2 and not is_number(entry[0]):
         colour, weight = entry
-        if not _real(weight) or weight < 0:
+        if not is_number(weight) or weight < 0:
             raise ValueError(weight)
         return _palette_colour(colour), float(weight)
     return _palette_colour(entry), 1.0
@@ -420,15 +159,15 @@ def _file_params(data):
     """``(params, problems)`` of a preset table's ``[params]``, each checked against its limits."""
     given = data.get("params", {})
     if not isinstance(given, dict):
-        return {}, [f"params must be a table ([params] with {', '.join(_PARAMS)}), got {given!r}"]
+        return {}, [f"params must be a table ([params] with {', '.join(tuple(FILTER_PARAMETERS))}), got {given!r}"]
     problems = []
     unknown = sorted(k for k in given if k not in FILTER_PARAMETERS)
     if unknown:
-        problems.append(f"unknown parameter(s) {unknown} in [params]; known: {list(_PARAMS)}")
+        problems.append(f"unknown parameter(s) {unknown} in [params]; known: {list(tuple(FILTER_PARAMETERS))}")
     params = {}
     for name in given.keys() & FILTER_PARAMETERS.keys():
         try:
-            params[name] = _parameter(FILTER_PARAMETERS[name])(f"[params] {name}", given[name])
+            params[name] = check_parameter(name, f"[params] {name}", given[name])
         except ValueError as err:
             problems.append(str(err))
     return params, problems
@@ -449,7 +188,7 @@ def settings_from_dict(data, *, source="preset"):
         problems += bad
     params, bad = _file_params(data)
     problems += bad
-    values, bad = _checked(values, labels)
+    values, bad = check_fields(values, labels)
     problems += bad
     if problems:
         raise ValueError(f"{source}: " + "; ".join(problems))

@@ -139,7 +139,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
     def to_settings(self):
         """The core's StylizeSettings for these properties."""
-        from ..presets import StylizeSettings
+        from ..settings import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
         direction = self.direction if self.mode in DIRECTED_MODES or self.strokes > 0 else None
