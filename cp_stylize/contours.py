@@ -31,8 +31,7 @@ import numpy as np
 from .arrays import aligned
 from .oklab import from_oklab, to_oklab
 from .smoothing import GaussianSmoother, taper
-from .sparse import SplitMatrix
-from .stencils import gradient_matrices
+from .structure import grid_gradients
 
 __all__ = ["contour_field", "line_strength", "line_width", "ink_colour", "thin_lines"]
 
@@ -59,9 +58,7 @@ def contour_field(band, colours, deviation, directions=None):
     lightness = np.ascontiguousarray(to_oklab(np.asarray(colours).reshape(band.size, -1)[:, :3])[:, 0],
                                      dtype=np.float32)
     smooth = GaussianSmoother(band, 0.5 * deviation**2, weights=taper(band.dist, band.width))(lightness[None, :])[0]
-    gradients = band.structure("gradients", np.dtype(np.float32).str,
-                               lambda: [SplitMatrix(D) for D in gradient_matrices(band, np.float32, rows="all")])
-    field = np.sqrt(sum((D @ smooth) ** 2 for D in gradients)) * deviation     # lightness across a deviation
+    field = np.sqrt(sum((D @ smooth) ** 2 for D in grid_gradients(band, np.float32))) * deviation     # lightness across a deviation
     if directions is not None:
         field = _along(band, field, directions, 0.5 * deviation)
     scale = max(float(np.quantile(field[band.inner] if band.inner is not None else field, 0.99)), LINE_FLOOR)

@@ -13,8 +13,8 @@ Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
 and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One engine (:class:`_StepOperators`)
 takes these steps for both schemes; they differ only in how the structure
-tensor's smoothings are done (:class:`HeatSmoothing`, Algorithm 1 as written,
-for ``"reference"``; :class:`GridSmoothing`, grid Gaussians, for ``"fast"``, the
+tensor's smoothings are done (:class:`~cp_stylize.structure.HeatSmoothing`, Algorithm 1 as written,
+for ``"reference"``; :class:`~cp_stylize.structure.GridSmoothing`, grid Gaussians, for ``"fast"``, the
 default) and in ``lag`` (the fast scheme rebuilds G only when the values have
 changed; the reference at every step).  The sparse products run on all cores.
 
@@ -38,12 +38,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .heat_flow import heat, heat_rows, time_steps
+from .heat_flow import PAPER_CFL, heat, time_steps
 from .parameters import DEFAULTS, DIRECTED_MODES, FILTER_PARAMETERS, MODES
-from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix, map_parallel
-from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step, gradient_matrices
-from .structure import eigen_2x2, invariants, outer_products, products, reduce_to_tangent, structure_tensor
+from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step
+from .structure import GridSmoothing, HeatSmoothing, eigen_2x2, reduce_to_tangent
 from .arrays import unit_rows
 from .cache import digest
 from .tangent import surface_normals, tangent_basis
@@ -52,9 +51,6 @@ __all__ = ["diffuse", "flow_noise", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
 
 #: Time stepping schemes: see :func:`diffuse`.
 SCHEMES = ("fast", "reference")
-
-#: The paper's time step, tau = 0.15 h^2 (section 5).
-PAPER_CFL = 0.15
 
 #: The fast scheme rebuilds the diffusion tensor once the values have changed
 #: by this root-mean-square fraction of their range since the last rebuild.
@@ -257,110 +253,6 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         _step(rows, A, extra, operators.laplacian, operators.E, tau, stable, clamp and (lo, hi), reaction)
         _check(rows, step, n_steps, progress)
     return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
-
-
-class HeatSmoothing:
-    """The structure tensor as Algorithm 1 writes it (``scheme="reference"``).
-
-    The smoothings to times ``sigma`` and ``rho`` are closest point heat flows
-    (steps of ``0.15 h^2``), the products ``grad v grad v^T`` are extended
-    component by component, and G is computed in float64.
-    """
-
-    def __init__(self, band, dtype, params):
-        self.band, self.params, self.dtype = band, params, dtype
-        self.work = np.dtype(np.float64)
-        self.dt = PAPER_CFL * band.h**2
-
-    def builds(self):
-        """What to build before the first step (the flow builds them side by side)."""
-        return [self._build_gradients]
-
-    def _build_gradients(self):
-        self.gradients = gradient_matrices(self.band, self.dtype)
-
-    def presmoothed(self, rows):
-        """``u_sigma``: a heat flow to ``sigma`` of a copy of ``rows`` (C, N)."""
-        if self.params["sigma"] == 0:
-            return rows
-        smoothed = rows.copy()
-        heat_rows(self.band, smoothed, self.params["sigma"], tau=self.dt)
-        return smoothed
-
-    def tensor(self, rows, progress=None):
-        """``J_{sigma,rho}`` (6, N) of band values ``rows`` (C, N), extended over the band."""
-        p = self.params
-        return structure_tensor(self.band, rows, p["sigma"], p["rho"], self.gradients, dt=self.dt, progress=progress)
-
-    def gradient_scale(self, rows):
-        """``||grad u_sigma||_inf``, the scale of lambda for Perona-Malik and Beltrami (section 4.5)."""
-        J = outer_products(self.band, self.presmoothed(rows), self.gradients)
-        return float(np.sqrt(max(float(invariants(J)[0].max()), 0.0)))
-
-    def invariants(self, rows, second):
-        """Trace (and, if ``second``, second invariant) of ``grad v grad v^T`` of ``rows`` (C, N), in float64."""
-        trace, det = invariants(outer_products(self.band, rows, self.gradients).astype(np.float64))
-        return np.maximum(trace, 0.0), (np.maximum(det, 0.0) if second else None)
-
-
-class GridSmoothing:
-    """The structure tensor from Gaussians on the grid (``scheme="fast"``), in the values' precision.
-
-    ``sigma``: a Gaussian of deviation ``sqrt(2 sigma)`` on the band, by three
-    sparse passes (:class:`~cp_stylize.smoothing.GaussianSmoother`); ``rho``: on
-    a box grid up to four times coarser (:class:`~cp_stylize.smoothing.GridGaussian`),
-    which also extends the tensor off the surface.  Gradients have rows at every
-    point whose neighbours are in the band; Perona-Malik and Beltrami extend
-    their invariants (one or two E products instead of six).
-    """
-
-    def __init__(self, band, dtype, params):
-        self.band, self.params, self.dtype = band, params, np.dtype(dtype)
-        self.work = self.dtype
-        self.E = band.split_matrix("E", dtype)
-
-    def builds(self):
-        return [self._build_presmooth, self._build_gradients] + [self._build_postsmooth] * ("rho" in self.params)
-
-    def _build_gradients(self):
-        # gradients wherever the band has the points: around the surface and at every point E reads
-        self.gradients = self.band.structure(
-            "gradients", self.dtype.str,
-            lambda: [SplitMatrix(D) for D in gradient_matrices(self.band, self.dtype, rows="all")])
-
-    def _build_presmooth(self):
-        sigma, band = self.params.get("sigma", 0.0), self.band
-        self._presmooth = None
-        if sigma > 0:
-            self._presmooth = band.structure(
-                "presmooth", (sigma, self.dtype.str),
-                lambda: GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype))
-
-    def _build_postsmooth(self):
-        # the tensor from a shell of three spacings about the surface; a rho narrower than a
-        # grid spacing would not reach the band's rim, and E extends the raw tensor instead
-        rho, band = self.params["rho"], self.band
-        self._postsmooth = None
-        if np.sqrt(2.0 * rho) >= band.h:
-            self._postsmooth = band.structure(
-                "postsmooth", (rho, self.dtype.str),
-                lambda: GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype))
-
-    def presmoothed(self, rows):
-        return rows if self._presmooth is None else self._presmooth(rows)
-
-    def tensor(self, rows, progress=None):
-        J = products(self.presmoothed(rows), self.gradients)
-        if self._postsmooth is not None:
-            return self._postsmooth(J)
-        return np.stack([self.E @ j for j in J])
-
-    def invariants(self, rows, second):
-        trace, det = invariants(products(rows, self.gradients))
-        return np.maximum(self.E @ trace, 0), (np.maximum(self.E @ det, 0) if second else None)
-
-    def gradient_scale(self, rows):
-        return float(np.sqrt(float(self.invariants(self.presmoothed(rows), False)[0].max())))
 
 
 class _StepOperators:

@@ -69,8 +69,7 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     also holds the bake-out's interpolation at its peak; ``unwrap``: a new atlas is made;
     ``image_pixels``: the pixels of the input images; ``speed``: how many times longer than the
     machine the constants were measured on this computer takes (:mod:`cp_stylize.calibration`)."""
-    from .diffusion import PAPER_CFL
-    from .heat_flow import time_steps
+    from .heat_flow import PAPER_CFL, time_steps
 
     steps, _ = time_steps(settings.T, PAPER_CFL * settings.spacing ** 2)
     per_point = SECONDS_SETUP_PER_POINT["gaussian" if settings.mode == "gaussian" else "other"]

@@ -13,11 +13,13 @@ import math
 
 import numpy as np
 
-__all__ = ["heat", "heat_rows", "time_steps"]
+__all__ = ["heat", "heat_rows", "time_steps", "HEAT_CFL", "PAPER_CFL"]
 
 #: Default explicit step for the heat solves, as a fraction of h^2.  The
 #: 7-point forward Euler step is stable up to h^2 / 6.
 HEAT_CFL = 0.1
+#: The paper's time step, tau = 0.15 h^2 (section 5): the diffusions' and the reference scheme's smoothings'.
+PAPER_CFL = 0.15
 
 
 def time_steps(T, tau):

@@ -59,14 +59,11 @@ class StrokeField:
     @classmethod
     def layers(cls, band, values, lengths):
         """A field for each dab length of ``lengths``, of the structure of band ``values`` (N, C)."""
-        from .diffusion import GridSmoothing
-        from .structure import eigen_2x2, products, reduce_to_tangent
+        from .structure import eigen_2x2, grid_gradients, products, reduce_to_tangent
         from .tangent import tangent_basis
 
-        gradients = GridSmoothing(band, np.float32, {"sigma": 0.0})
-        gradients._build_gradients()
         rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
-        J = products(rows, gradients.gradients)
+        J = products(rows, grid_gradients(band, np.float32))
         q0, q1 = np.ascontiguousarray(tangent_basis(band).transpose(2, 1, 0), dtype=np.float32)
         fields, smoothing = [], None
         for length in lengths:

@@ -8,16 +8,25 @@ closed form.
 
 Tensor fields are stored as rows (6, N) in the order of
 :data:`~cp_stylize.stencils.TENSOR_COMPONENTS`.
+
+The diffusions (:func:`cp_stylize.diffuse`) take the tensor's smoothings from
+:class:`HeatSmoothing` (Algorithm 1 as written: heat flows) or
+:class:`GridSmoothing` (Gaussians on the grid, the fast scheme);
+:func:`grid_gradients` gives the gradients at every band point whose
+neighbours are in the band, kept with the band for re-runs.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .heat_flow import heat_rows
-from .stencils import TENSOR_COMPONENTS
+from .heat_flow import PAPER_CFL, heat_rows
+from .smoothing import GaussianSmoother, GridGaussian, taper
+from .sparse import SplitMatrix
+from .stencils import TENSOR_COMPONENTS, gradient_matrices
 
-__all__ = ["products", "outer_products", "invariants", "structure_tensor", "reduce_to_tangent", "eigen_2x2"]
+__all__ = ["products", "outer_products", "invariants", "structure_tensor", "reduce_to_tangent", "eigen_2x2",
+           "grid_gradients", "HeatSmoothing", "GridSmoothing"]
 
 
 def products(channels, gradients):
@@ -106,3 +115,113 @@ def eigen_2x2(a, b, d):
     c1 = np.where(degenerate, 1.0, x / safe)
     s1 = np.where(degenerate, 0.0, y / safe)
     return mu1, mu2, c1, s1
+
+
+def grid_gradients(band, dtype=np.float32):
+    """The central gradient matrices (3, as :class:`~cp_stylize.sparse.SplitMatrix`) in ``dtype`` wherever
+    the band has the points: around the surface and at every point E reads; kept with the band for
+    re-runs (:meth:`cp_stylize.band.Band.structure`)."""
+    dtype = np.dtype(dtype)
+    return band.structure("gradients", dtype.str,
+                          lambda: [SplitMatrix(D) for D in gradient_matrices(band, dtype, rows="all")])
+
+
+class HeatSmoothing:
+    """The structure tensor as Algorithm 1 writes it (``scheme="reference"``).
+
+    The smoothings to times ``sigma`` and ``rho`` are closest point heat flows
+    (steps of ``0.15 h^2``), the products ``grad v grad v^T`` are extended
+    component by component, and G is computed in float64.
+    """
+
+    def __init__(self, band, dtype, params):
+        self.band, self.params, self.dtype = band, params, dtype
+        self.work = np.dtype(np.float64)
+        self.dt = PAPER_CFL * band.h**2
+
+    def builds(self):
+        """What to build before the first step (the flow builds them side by side)."""
+        return [self._build_gradients]
+
+    def _build_gradients(self):
+        self.gradients = gradient_matrices(self.band, self.dtype)
+
+    def presmoothed(self, rows):
+        """``u_sigma``: a heat flow to ``sigma`` of a copy of ``rows`` (C, N)."""
+        if self.params["sigma"] == 0:
+            return rows
+        smoothed = rows.copy()
+        heat_rows(self.band, smoothed, self.params["sigma"], tau=self.dt)
+        return smoothed
+
+    def tensor(self, rows, progress=None):
+        """``J_{sigma,rho}`` (6, N) of band values ``rows`` (C, N), extended over the band."""
+        p = self.params
+        return structure_tensor(self.band, rows, p["sigma"], p["rho"], self.gradients, dt=self.dt, progress=progress)
+
+    def gradient_scale(self, rows):
+        """``||grad u_sigma||_inf``, the scale of lambda for Perona-Malik and Beltrami (section 4.5)."""
+        J = outer_products(self.band, self.presmoothed(rows), self.gradients)
+        return float(np.sqrt(max(float(invariants(J)[0].max()), 0.0)))
+
+    def invariants(self, rows, second):
+        """Trace (and, if ``second``, second invariant) of ``grad v grad v^T`` of ``rows`` (C, N), in float64."""
+        trace, det = invariants(outer_products(self.band, rows, self.gradients).astype(np.float64))
+        return np.maximum(trace, 0.0), (np.maximum(det, 0.0) if second else None)
+
+
+class GridSmoothing:
+    """The structure tensor from Gaussians on the grid (``scheme="fast"``), in the values' precision.
+
+    ``sigma``: a Gaussian of deviation ``sqrt(2 sigma)`` on the band, by three
+    sparse passes (:class:`~cp_stylize.smoothing.GaussianSmoother`); ``rho``: on
+    a box grid up to four times coarser (:class:`~cp_stylize.smoothing.GridGaussian`),
+    which also extends the tensor off the surface.  Gradients have rows at every
+    point whose neighbours are in the band; Perona-Malik and Beltrami extend
+    their invariants (one or two E products instead of six).
+    """
+
+    def __init__(self, band, dtype, params):
+        self.band, self.params, self.dtype = band, params, np.dtype(dtype)
+        self.work = self.dtype
+        self.E = band.split_matrix("E", dtype)
+
+    def builds(self):
+        return [self._build_presmooth, self._build_gradients] + [self._build_postsmooth] * ("rho" in self.params)
+
+    def _build_gradients(self):
+        self.gradients = grid_gradients(self.band, self.dtype)
+
+    def _build_presmooth(self):
+        sigma, band = self.params.get("sigma", 0.0), self.band
+        self._presmooth = None
+        if sigma > 0:
+            self._presmooth = band.structure(
+                "presmooth", (sigma, self.dtype.str),
+                lambda: GaussianSmoother(band, sigma, weights=taper(band.dist, band.width), dtype=self.dtype))
+
+    def _build_postsmooth(self):
+        # the tensor from a shell of three spacings about the surface; a rho narrower than a
+        # grid spacing would not reach the band's rim, and E extends the raw tensor instead
+        rho, band = self.params["rho"], self.band
+        self._postsmooth = None
+        if np.sqrt(2.0 * rho) >= band.h:
+            self._postsmooth = band.structure(
+                "postsmooth", (rho, self.dtype.str),
+                lambda: GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h), dtype=self.dtype))
+
+    def presmoothed(self, rows):
+        return rows if self._presmooth is None else self._presmooth(rows)
+
+    def tensor(self, rows, progress=None):
+        J = products(self.presmoothed(rows), self.gradients)
+        if self._postsmooth is not None:
+            return self._postsmooth(J)
+        return np.stack([self.E @ j for j in J])
+
+    def invariants(self, rows, second):
+        trace, det = invariants(products(rows, self.gradients))
+        return np.maximum(self.E @ trace, 0), (np.maximum(self.E @ det, 0) if second else None)
+
+    def gradient_scale(self, rows):
+        return float(np.sqrt(float(self.invariants(self.presmoothed(rows), False)[0].max())))
