@@ -11,7 +11,8 @@
 
 Each step builds the diffusion tensor G from the current values (Algorithm 1),
 takes an explicit step of ``div(G grad v)`` with the 19-point scheme (eq. (51))
-and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One engine (:class:`_StepOperators`)
+and extends (eq. (50)): ``v <- E (v + tau A(G) v)``.  One engine
+(:class:`~cp_stylize.diffusion_tensor.StepOperators`)
 takes these steps for both schemes; they differ only in how the structure
 tensor's smoothings are done (:class:`~cp_stylize.structure.HeatSmoothing`, Algorithm 1 as written,
 for ``"reference"``; :class:`~cp_stylize.structure.GridSmoothing`, grid Gaussians, for ``"fast"``, the
@@ -32,20 +33,100 @@ References
 - C. Wu, J. Deng, F. Chen and X. Tai, "Scale-space analysis of discrete
   filtering over arbitrary triangulated surfaces", 2009 (the scale-space
   properties the tests check).
+
+Filter parameters
+-----------------
+:func:`diffuse` takes each mode's parameters by name (those not given take
+the mode's defaults, :data:`DEFAULTS`; their limits are the parameter table's,
+:mod:`cp_stylize.parameters`):
+
+sigma : float, optional
+    Pre-smoothing time of the structure tensor (Algorithm 1, step 2).  For
+    Perona-Malik and Beltrami it sets the smoothing of the data whose
+    largest gradient normalises ``lambda``.
+rho : float, optional
+    Post-smoothing time of the structure tensor (step 4); EED and CED.
+alpha : float, optional
+    CED's smallest diffusivity, eq. (9).
+b_rel : float, optional
+    CED's ``B = b_rel * ||c0||_inf``, eq. (53), with ``c0`` the coherence of ``u0``.
+lambda_rel : float, optional
+    Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
+    Perona-Malik, Beltrami and Flow: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
+beta, contrast : float, optional
+    Flow (Diewald and Rumpf): the largest diffusivity across the field,
+    ``G = beta / (1 + |grad u_sigma|^2 / lambda^2)``, and the strength of
+    the contrast term ``f(u) = (1 - |u|)(|u| - 1/2) u`` (values scaled to
+    their initial range), at the rate ``4 contrast / T``: a mid-grey
+    moves ``contrast`` e-folds towards black or white over the run,
+    whatever the size of the object.
+ink : float, optional
+    Flow: 0 (the default) diffuses ``u0``.  Above 0 the flow runs on
+    Diewald and Rumpf's initial data instead, white noise (seed :data:`INK_SEED`)
+    smoothed over ``h^2 / 4``, and the darker half of that flow texture
+    ``s`` (scaled to [0, 1]) darkens ``u0`` as strokes:
+    ``u0 (1 - ink max(1 - 2 s, 0))``; ``u0`` keeps its tones.
+
+The method
+----------
+EED and CED build ``G = Q G~ Q^T`` with ``G~ = kappa1 w w^T + kappa2 w_perp w_perp^T``
+from the eigenvectors of the tangent structure tensor ``J~ = Q^T J Q``
+(eqs. (25)-(29)).  With the coherence ``c = mu1 - mu2``:
+
+- EED: ``kappa1 = 1 / (1 + (c / lambda)^2)``, ``kappa2 = 1``: the Perona-Malik
+  function of eq. (8) with ``c`` in the role of ``s``, so that the diffusivity
+  depends only on ``c / ||c0||_inf`` as section 4.5's scaling requires; G = I
+  where ``c = 0``.
+- CED: ``kappa1 = alpha``, ``kappa2 = alpha + (1 - alpha) exp(-B^2 / c^2)`` (eq. (9)).
+  With a direction ``field`` of confidence ``w``, the strokes' orientation
+  blends from the texture's (the structure tensor's, where ``w`` is 0) to the
+  field's (where it is 1), by the doubled angles of the two line fields
+  weighted ``1 - w`` and ``w``; the diffusivities stay those of the texture's
+  coherence.
+
+Perona-Malik uses ``G = g I`` with ``g`` from central differences at the
+grid nodes, averaged to the cell faces (the consistent Morton-Mayers form,
+Biddle's dissertation, section 3.3), not the face-gradient form.  Beltrami uses the
+decoupled colour Beltrami flow of Malladi and Ravve, eq. (90),
+
+.. math:: u_t = \\tfrac12 \\operatorname{div}(\\nabla u / g) + \\tfrac12 \\Delta u / g,
+          \\quad g = \\det(I + J~ / \\lambda^2) = 1 + \\operatorname{tr} J~ / \\lambda^2
+          + \\det J~ / \\lambda^4,
+
+with ``J~`` the channel-mean tangent structure tensor of ``u_sigma``.  It is
+not a conservation law.
+
+The fast scheme smooths for the structure tensor with Gaussians of
+deviation ``sqrt(2 t)`` (the heat kernel at time ``t``): ``sigma`` on the
+band, by three sparse passes along the grid axes
+(:class:`~cp_stylize.smoothing.GaussianSmoother`); ``rho``, the wider one,
+on a box grid up to four times coarser
+(:class:`~cp_stylize.smoothing.GridGaussian`), which also extends the
+tensor off the surface without the six E products.  A 3-D Gaussian of a
+closest point extension is the surface Gaussian up to terms of relative
+size ``(sqrt(2 t) kappa)^2``.  Only the structure tensor is smoothed this
+way: on a sheet thinner than about three deviations, the tensor on one
+side also sees the edges of the other (the values are never mixed: the
+steps are the reference's), where the reference's heat solves mix the two
+sides only on sheets thinner than a few grid spacings.  Perona-Malik extends the gradient's
+squared length (one E product instead of six), Beltrami the two invariants
+it needs.  Each step's ``E (v + tau A v)`` is the reference's, with A
+assembled from the same weights.
+
+Scaling: on a surface scaled by ``s``, use ``h``, ``sqrt`` of every time
+(``T``, ``sigma``, ``rho``, ``tau``) scaled by ``s``, i.e. times times
+``s^2``; the relative parameters (``alpha``, ``b_rel``, ``lambda_rel``)
+stay, and the result is the same function on the surface (section 4.5).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .diffusion_tensor import StepOperators
 from .heat_flow import PAPER_CFL, heat, time_steps
 from .parameters import DEFAULTS, DIRECTED_MODES, FILTER_PARAMETERS, MODES
-from .sparse import SplitMatrix, map_parallel
-from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step
-from .structure import GridSmoothing, HeatSmoothing, eigen_2x2, reduce_to_tangent
-from .arrays import unit_rows
-from .cache import digest
-from .tangent import surface_normals, tangent_basis
+from .structure import GridSmoothing, HeatSmoothing
 
 __all__ = ["diffuse", "flow_noise", "MODES", "SCHEMES", "DEFAULTS", "PAPER_CFL"]
 
@@ -81,12 +162,8 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         diffusion tensor makes unstable (Gershgorin bound) is split into
         smaller equal steps.
     scheme : {"fast", "reference"}
-        ``"reference"`` rebuilds G at every step exactly as Algorithm 1 says,
-        with the structure tensor's smoothings done as closest point heat
-        flows.  ``"fast"`` (the default) takes the same steps of the same
-        scheme (51), with three changes (see Notes): the smoothings are
-        Gaussians on the grid, G is rebuilt only when the values have changed
-        (``lag``), and the sparse products run on all cores.
+        ``"reference"``: Algorithm 1 as written; ``"fast"`` (the default): the
+        same steps with the smoothings on the grid and G rebuilt after ``lag``.
     lag : float
         Fast scheme: G is rebuilt before a step once the values have changed,
         since the last rebuild, by this root-mean-square fraction of their
@@ -100,47 +177,19 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         Jacobian of the closest point function (eqs. (32)-(33)).
     field : ndarray (N, 3), optional
         The direction field the strokes follow at the band's closest points
-        (a line field: ``e`` and ``-e`` are the same), such as
-        ``principal_curvatures(band).e2``.  Its tangential part is used; its
-        length, clipped to [0, 1], is the confidence ``w`` in it.  Needed by
-        ``"flow"``: where ``w`` is 0 it falls back to Perona-Malik's isotropic
-        ``g``.  Optional for ``"ced"``: the strokes' orientation blends from
-        the texture's (the structure tensor's, where ``w`` is 0) to the
-        field's (where it is 1), by the doubled angles of the two line fields
-        weighted ``1 - w`` and ``w``; the diffusivities stay those of the
-        texture's coherence.
+        (a line field), such as ``principal_curvatures(band).e2``: its
+        tangential part, its length clipped to [0, 1] the confidence ``w`` in
+        it.  Needed by ``"flow"`` (Perona-Malik's ``g`` where ``w`` is 0);
+        for ``"ced"``, the orientation blends from the texture's to the
+        field's with ``w`` (see the module's notes).
     progress : callable, optional
         ``progress(fraction)`` as the run advances; an exception it raises
         stops the run and propagates (the input is never modified).
     **params
-        The mode's filter parameters (:data:`cp_stylize.parameters.FILTERS`);
-        those not given take the mode's defaults (:data:`DEFAULTS`).
-    sigma : float, optional
-        Pre-smoothing time of the structure tensor (Algorithm 1, step 2).  For
-        Perona-Malik and Beltrami it sets the smoothing of the data whose
-        largest gradient normalises ``lambda``.
-    rho : float, optional
-        Post-smoothing time of the structure tensor (step 4); EED and CED.
-    alpha : float, optional
-        CED's smallest diffusivity, eq. (9).
-    b_rel : float, optional
-        CED's ``B = b_rel * ||c0||_inf``, eq. (53), with ``c0`` the coherence of ``u0``.
-    lambda_rel : float, optional
-        Edge sensitivity.  EED: ``lambda = lambda_rel * ||c0||_inf`` (eq. (53));
-        Perona-Malik, Beltrami and Flow: ``lambda = lambda_rel * ||grad u0_sigma||_inf``.
-    beta, contrast : float, optional
-        Flow (Diewald and Rumpf): the largest diffusivity across the field,
-        ``G = beta / (1 + |grad u_sigma|^2 / lambda^2)``, and the strength of
-        the contrast term ``f(u) = (1 - |u|)(|u| - 1/2) u`` (values scaled to
-        their initial range), at the rate ``4 contrast / T``: a mid-grey
-        moves ``contrast`` e-folds towards black or white over the run,
-        whatever the size of the object.
-    ink : float, optional
-        Flow: 0 (the default) diffuses ``u0``.  Above 0 the flow runs on
-        Diewald and Rumpf's initial data instead, white noise (seed :data:`INK_SEED`)
-        smoothed over ``h^2 / 4``, and the darker half of that flow texture
-        ``s`` (scaled to [0, 1]) darkens ``u0`` as strokes:
-        ``u0 (1 - ink max(1 - 2 s, 0))``; ``u0`` keeps its tones.
+        The mode's filter parameters by name (``sigma``, ``rho``, ``alpha``,
+        ``b_rel``, ``lambda_rel``, ``beta``, ``contrast``, ``ink``; see the
+        module's *Filter parameters*); those not given take the mode's
+        defaults (:data:`DEFAULTS`).
 
     Returns
     -------
@@ -149,59 +198,39 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
 
     Notes
     -----
-    EED and CED build ``G = Q G~ Q^T`` with ``G~ = kappa1 w w^T + kappa2 w_perp w_perp^T``
-    from the eigenvectors of the tangent structure tensor ``J~ = Q^T J Q``
-    (eqs. (25)-(29)).  With the coherence ``c = mu1 - mu2``:
-
-    - EED: ``kappa1 = 1 / (1 + (c / lambda)^2)``, ``kappa2 = 1``: the Perona-Malik
-      function of eq. (8) with ``c`` in the role of ``s``, so that the diffusivity
-      depends only on ``c / ||c0||_inf`` as section 4.5's scaling requires; G = I
-      where ``c = 0``.
-    - CED: ``kappa1 = alpha``, ``kappa2 = alpha + (1 - alpha) exp(-B^2 / c^2)`` (eq. (9)).
-
-    Perona-Malik uses ``G = g I`` with ``g`` from central differences at the
-    grid nodes, averaged to the cell faces (the consistent Morton-Mayers form,
-    Biddle's dissertation, section 3.3), not the face-gradient form.  Beltrami uses the
-    decoupled colour Beltrami flow of Malladi and Ravve, eq. (90),
-
-    .. math:: u_t = \\tfrac12 \\operatorname{div}(\\nabla u / g) + \\tfrac12 \\Delta u / g,
-              \\quad g = \\det(I + J~ / \\lambda^2) = 1 + \\operatorname{tr} J~ / \\lambda^2
-              + \\det J~ / \\lambda^4,
-
-    with ``J~`` the channel-mean tangent structure tensor of ``u_sigma``.  It is
-    not a conservation law.
-
-    The fast scheme smooths for the structure tensor with Gaussians of
-    deviation ``sqrt(2 t)`` (the heat kernel at time ``t``): ``sigma`` on the
-    band, by three sparse passes along the grid axes
-    (:class:`~cp_stylize.smoothing.GaussianSmoother`); ``rho``, the wider one,
-    on a box grid up to four times coarser
-    (:class:`~cp_stylize.smoothing.GridGaussian`), which also extends the
-    tensor off the surface without the six E products.  A 3-D Gaussian of a
-    closest point extension is the surface Gaussian up to terms of relative
-    size ``(sqrt(2 t) kappa)^2``.  Only the structure tensor is smoothed this
-    way: on a sheet thinner than about three deviations, the tensor on one
-    side also sees the edges of the other (the values are never mixed: the
-    steps are the reference's), where the reference's heat solves mix the two
-    sides only on sheets thinner than a few grid spacings.  Perona-Malik extends the gradient's
-    squared length (one E product instead of six), Beltrami the two invariants
-    it needs.  Each step's ``E (v + tau A v)`` is the reference's, with A
-    assembled from the same weights.
-
-    Scaling: on a surface scaled by ``s``, use ``h``, ``sqrt`` of every time
-    (``T``, ``sigma``, ``rho``, ``tau``) scaled by ``s``, i.e. times times
-    ``s^2``; the relative parameters (``alpha``, ``b_rel``, ``lambda_rel``)
-    stay, and the result is the same function on the surface (section 4.5).
+    The module's *The method* gives the tensors of each mode, the fast
+    scheme's smoothings and how the parameters scale with the surface.
     """
+    params, lag = _checked(band, mode, scheme, params, lag, field)
+    u0 = band.check_values(u0)
+    if not np.all(np.isfinite(u0)):
+        raise ValueError("u0 holds NaN or infinite values")
+    if field is not None:
+        field = np.asarray(field, dtype=np.float64)
+    if mode == "flow" and params["ink"] > 0:
+        return _inked(band, u0, T=T, tau=tau, scheme=scheme, lag=lag, clamp=clamp, normals=normals, field=field,
+                      progress=progress, **params)
+    tau = PAPER_CFL * band.h**2 if tau is None else float(tau)
+    n_steps, tau = time_steps(T, tau)
+    rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
+    if n_steps > 0:
+        smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
+        operators = StepOperators(band, rows.dtype, mode, params, normals, smoothing, field)
+        _evolve(rows, operators, n_steps, tau, T, 0.0 if scheme == "reference" else lag, clamp, progress)
+    return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
+
+
+def _checked(band, mode, scheme, given, lag, field):
+    """The filter parameters of ``mode`` (its defaults with ``given`` over them) and ``lag``, each checked,
+    and the mode, scheme and direction ``field`` checked; ValueError or TypeError naming what is wrong."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if scheme not in SCHEMES:
         raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
-    unknown = set(params) - set(FILTER_PARAMETERS)
+    unknown = set(given) - set(FILTER_PARAMETERS)
     if unknown:
         raise TypeError(f"diffuse() got unexpected keyword argument(s) {sorted(unknown)}; "
                         f"filter parameters are {list(FILTER_PARAMETERS)}")
-    given = params
     params = dict(DEFAULTS[mode])
     for name, value in given.items():
         if value is not None:
@@ -214,33 +243,26 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         raise ValueError(f"lag must be a non-negative number, got {lag!r}")
     if mode == "ced" and not params["alpha"] <= 1:
         raise ValueError(f"alpha must lie in [0, 1], got {params['alpha']!r}")
-    u0 = band.check_values(u0)
-    if not np.all(np.isfinite(u0)):
-        raise ValueError("u0 holds NaN or infinite values")
     if mode == "flow" and field is None:
         raise ValueError("mode 'flow' needs field=, an (N, 3) direction field such as principal_curvatures(band).e2")
     if field is not None and mode not in DIRECTED_MODES:
         raise ValueError(f"field= is for the modes {' and '.join(map(repr, DIRECTED_MODES))} only, not {mode!r}")
     if field is not None:
-        field = np.asarray(field, dtype=np.float64)
-        if field.shape != (band.size, 3) or not np.all(np.isfinite(field)):
-            raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {field.shape}")
-    if mode == "flow" and params["ink"] > 0:
-        return _inked(band, u0, T=T, tau=tau, scheme=scheme, lag=lag, clamp=clamp, normals=normals, field=field,
-                      progress=progress, **params)
-    tau = PAPER_CFL * band.h**2 if tau is None else float(tau)
-    n_steps, tau = time_steps(T, tau)
-    rows = np.array(u0.T if u0.ndim == 2 else u0[None, :], order="C")
-    if n_steps == 0:
-        return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
+        shape = np.shape(field)
+        if shape != (band.size, 3) or not np.all(np.isfinite(np.asarray(field, dtype=np.float64))):
+            raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {shape}")
+    return params, lag
+
+
+def _evolve(rows, operators, n_steps, tau, T, lag, clamp, progress):
+    """``n_steps`` steps of ``tau`` of the diffusion ``operators`` on band values ``rows`` (C, N), in place;
+    the diffusion tensor rebuilt once the values have changed by ``lag`` (0: at every step)."""
+    params, band = operators.params, operators.band
     lo, hi = rows.min(axis=1, keepdims=True), rows.max(axis=1, keepdims=True)
-    smoothing = HeatSmoothing if scheme == "reference" else GridSmoothing
-    operators = _StepOperators(band, rows.dtype, mode, params, normals, smoothing, field)
     operators.normalise(rows)
     reaction = None
-    if mode == "flow" and params["contrast"] > 0:
+    if operators.mode == "flow" and params["contrast"] > 0:
         reaction = operators.reaction(lo, hi, 4.0 * params["contrast"] / T)
-    lag = 0.0 if scheme == "reference" else lag
     inner = band.inner
     span = np.maximum(hi - lo, np.finfo(rows.dtype).tiny)[:, 0]
     built_from = None
@@ -252,180 +274,6 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
         stable = operators.stable_step if reaction is None else min(operators.stable_step, operators.reaction_step)
         _step(rows, A, extra, operators.laplacian, operators.E, tau, stable, clamp and (lo, hi), reaction)
         _check(rows, step, n_steps, progress)
-    return rows.T.copy() if u0.ndim == 2 else rows[0].copy()
-
-
-class _StepOperators:
-    """Builds the step operator ``A(G)`` of one mode from the current values (Algorithm 1, steps 2-8).
-
-    The structure tensor's smoothings come from ``smoothing``
-    (:class:`HeatSmoothing` or :class:`GridSmoothing`); everything else, the
-    tangent reduction, the diffusivities, G and the 19-point weights, is the
-    same for both schemes, computed in the smoothing's precision.
-    """
-
-    def __init__(self, band, dtype, mode, params, normals, smoothing, field=None):
-        self.band, self.dtype, self.mode, self.params = band, np.dtype(dtype), mode, params
-        self.normals, self.field = normals, field
-        self.E = band.split_matrix("E", dtype)
-        self.laplacian = band.split_matrix("L", dtype) if mode in ("gaussian", "beltrami") else None
-        self.scale = 0.0
-        self._initial = None
-        if mode == "gaussian":
-            self.stable_step = DivergenceOperator.stable_step(band.laplacian_matrix(dtype))
-            return
-        self.smoothing = smoothing(band, dtype, {k: params[k] for k in DEFAULTS[mode]})  # the mode's own
-        self.work = self.smoothing.work
-        # the parts are independent: build them side by side on the worker threads, the large ones first
-        smoothing_parts = self.smoothing.builds()
-        parts = smoothing_parts[:1] + [self._build_divergence] + smoothing_parts[1:]
-        map_parallel(lambda build: build(), parts + [self._build_tangents] * (mode in ("eed", "ced"))
-                     + [self._build_field] * (mode == "flow"))
-        self.orientation = None if mode != "ced" or field is None else self._field_orientation()
-
-    def _build_divergence(self):
-        self.divergence = self.band.structure("divergence", self.dtype.str,
-                                              lambda: DivergenceOperator(self.band, self.dtype))
-        self._A = self.divergence.template()
-        self.A = SplitMatrix(self._A)
-
-    def _build_tangents(self):
-        def build():
-            Q = tangent_basis(self.band, self.normals)
-            return np.ascontiguousarray(Q.transpose(2, 1, 0), dtype=self.smoothing.work)  # (2, 3, N): q0, q1 by axis
-
-        self.Q = self.band.structure("tangents", (digest(self.normals), np.dtype(self.smoothing.work).str), build)
-
-    def _field_orientation(self):
-        """The field's across-stroke line field in the tangent basis Q, as a doubled angle weighted by its
-        confidence ``w``, and ``1 - w``: ``(w cos 2phi, w sin 2phi, 1 - w)``."""
-        q0, q1 = self.Q
-        fc, fs = np.sum(q0 * self.field.T, axis=0), np.sum(q1 * self.field.T, axis=0)
-        length2 = fc * fc + fs * fs
-        w = np.clip(np.sqrt(length2), 0.0, 1.0)
-        scale = np.where(length2 > 0, w / np.where(length2 > 0, length2, 1.0), 0.0)
-        # across the strokes: (-fs, fc); its doubled angle (fs^2 - fc^2, -2 fs fc) / length^2
-        return tuple(a.astype(self.work) for a in (scale * (fs * fs - fc * fc), scale * (-2.0 * fs * fc), 1.0 - w))
-
-    def _orient(self, c1, s1):
-        """CED's across-stroke direction ``(c1, s1)`` blended with the field's (see :func:`diffuse`)."""
-        if self.orientation is None:
-            return c1, s1
-        cos2, sin2, keep = self.orientation
-        C = keep * (c1 * c1 - s1 * s1) + cos2
-        S = keep * (2.0 * c1 * s1) + sin2
-        r = np.sqrt(C * C + S * S)
-        ok = r > 1e-6
-        r = np.where(ok, r, 1.0)
-        c = np.sqrt(np.clip(0.5 * (1.0 + C / r), 0.0, 1.0))
-        s = np.copysign(np.sqrt(np.clip(0.5 * (1.0 - C / r), 0.0, 1.0)), S)
-        own = ~ok | (keep >= 1)          # no field there: the texture's own, to the bit
-        return np.where(own, c1, c), np.where(own, s1, s)
-
-    def _build_field(self):
-        """The field's unit tangent direction e (3, N), its confidence (N,) and the tangent projector (6, N)."""
-        n = surface_normals(self.band, self.normals)
-        tangential = self.field - np.sum(self.field * n, axis=1)[:, None] * n
-        e, length = unit_rows(tangential, (1.0, 0.0, 0.0))
-        self.confidence = np.clip(length, 0.0, 1.0).astype(self.work)
-        self.direction = np.ascontiguousarray(e.T, dtype=self.work)
-        self.projector = np.stack([float(a == b) - n[:, a] * n[:, b] for a, b in TENSOR_COMPONENTS]).astype(self.work)
-
-    def reaction(self, lo, hi, rate):
-        """The contrast term ``rate * f(v)`` of rows (C, N), with values scaled to ``[lo, hi]`` (C, 1).
-
-        ``f(u) = (1 - |u|)(|u| - 1/2) u`` (Diewald and Rumpf, in its colour form); the
-        step limit keeps ``rate * dt`` at most 1, where ``|f'| <= 1/2`` on [0, 1].
-        """
-        span = np.maximum(hi - lo, np.finfo(lo.dtype).tiny)
-        self.reaction_step = 1.0 / rate
-
-        def term(rows):
-            u = (rows - lo) / span
-            size = np.sqrt(np.sum(u * u, axis=0))
-            return (rate * (1.0 - size) * (size - 0.5)) * u * span
-
-        return term
-
-    def normalise(self, rows):
-        """Scale-free parameters from the initial data (section 4.5)."""
-        if self.mode in ("eed", "ced"):
-            self._initial = self._coherence(rows)  # the first step reuses it
-            self.scale = float(self._initial[0].max())
-        elif self.mode in ("perona_malik", "beltrami", "flow"):
-            self.scale = self.smoothing.gradient_scale(rows)
-
-    def _coherence(self, rows, progress=None):
-        """``(c, c1, s1)``: the coherence ``mu1 - mu2`` and the direction of ``mu1`` of ``J~`` (eqs. (25)-(26))."""
-        J = self.smoothing.tensor(rows, progress).astype(self.work, copy=False)
-        mu1, mu2, c1, s1 = eigen_2x2(*reduce_to_tangent(J, *self.Q))
-        return np.maximum(mu1 - mu2, 0), c1, s1
-
-    def _fill(self, G):
-        """A with the 19-point weights of the tensor field G (6, N), and its stable step (Gershgorin)."""
-        self.divergence.fill(G, self._A.data)
-        self.stable_step = gershgorin_step(np.abs(self._A.data).reshape(-1, 19).sum(axis=1))
-        return self.A
-
-    def operator(self, rows, progress=None):
-        """``(A, extra)``: the step is ``v + dt (A v + extra * L v)`` (extra None but for Beltrami)."""
-        if self.mode == "gaussian":
-            if progress is not None:
-                progress(1.0)
-            return self.laplacian, None
-        p = self.params
-        if self.mode in ("eed", "ced"):
-            if self._initial is not None:
-                (c, c1, s1), self._initial = self._initial, None
-            else:
-                c, c1, s1 = self._coherence(rows, progress)
-            k1, k2 = _diffusivities(self.mode, c, p, self.scale)
-            c1, s1 = self._orient(c1, s1)
-            q0, q1 = self.Q
-            w = q0 * c1 + q1 * s1
-            G = np.empty((6, self.band.size), dtype=self.work)
-            difference = k1 - k2
-            for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-                # k2 Q Q^T + (k1 - k2) w w^T: the tangent projector Q Q^T = q0 q0^T + q1 q1^T
-                np.multiply(q0[a], q0[b], out=G[k])
-                G[k] += q1[a] * q1[b]
-                G[k] *= k2
-                G[k] += difference * w[a] * w[b]
-            return self._fill(G), None
-        if self.mode == "flow":
-            return self._fill(self._field_tensor(rows, progress)), None
-        # Perona-Malik and Beltrami: scalar edge stopping from the current gradient
-        beltrami = self.mode == "beltrami"
-        trace, second = self.smoothing.invariants(self.smoothing.presmoothed(rows) if beltrami else rows, beltrami)
-        if progress is not None:
-            progress(1.0)
-        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
-        if not beltrami:
-            g = (1.0 / (1.0 + trace / lam2)).astype(self.work)
-            return self._fill(_isotropic(g)), None
-        # det of the tangent tensor: J is tangent (rank <= 2), so det J~ is its second invariant;
-        # in float64, where lam2**2 stays a number
-        trace, second = trace.astype(np.float64, copy=False), second.astype(np.float64, copy=False)
-        inv = (0.5 / (1.0 + trace / lam2 + second / lam2**2)).astype(self.work)
-        return self._fill(_isotropic(inv)), inv.astype(self.dtype)
-
-
-    def _field_tensor(self, rows, progress=None):
-        """Seed 004's ``G = g P + c (alpha - g) e e^T`` (6, N): ``alpha`` along the field's direction e,
-        ``g = beta / (1 + |grad u_sigma|^2 / lambda^2)`` across it, isotropic ``g`` where the confidence c is 0."""
-        p = self.params
-        trace, _ = self.smoothing.invariants(self.smoothing.presmoothed(rows), False)
-        if progress is not None:
-            progress(1.0)
-        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
-        g = (p["beta"] / (1.0 + trace / lam2)).astype(self.work)
-        along = self.confidence * (p["alpha"] - g)
-        e = self.direction
-        G = np.empty((6, self.band.size), dtype=self.work)
-        for k, (a, b) in enumerate(TENSOR_COMPONENTS):
-            np.multiply(g, self.projector[k], out=G[k])
-            G[k] += along * e[a] * e[b]
-        return G
 
 
 #: Seed of the white noise the ``ink`` of the flow mode draws its strokes from.
@@ -433,7 +281,7 @@ INK_SEED = 4
 
 
 def flow_noise(band, seed=0, dtype=np.float64):
-    """Seed 004's initial data for a flow texture: white noise in [0, 1] on the band, extended and
+    """Diewald and Rumpf's initial data for a flow texture: white noise in [0, 1] on the band, extended and
     smoothed by a surface heat flow over ``h^2 / 4``."""
     noise = np.random.default_rng(seed).uniform(0.0, 1.0, band.size).astype(dtype)
     return heat(band, band.extend(noise), 0.25 * band.h**2)
@@ -481,20 +329,3 @@ def _rms_change(rows, before, inner, span):
     """Largest root-mean-square change over the channels at the inner points, relative to each range."""
     return max(float(np.sqrt(np.mean((rows[j][inner] - before[j]) ** 2))) / float(span[j])
                for j in range(len(rows)))
-
-
-def _diffusivities(mode, c, p, scale):
-    """EED's or CED's ``(kappa1, kappa2)`` from the coherence ``c`` and ``scale = ||c0||_inf``."""
-    with np.errstate(over="ignore"):
-        if mode == "eed":
-            lam = max(p["lambda_rel"] * scale, _TINY)
-            return 1.0 / (1.0 + (c / lam) ** 2), np.ones_like(c)
-        B = p["b_rel"] * scale
-        safe = np.where(c > 0, c, 1.0)
-        k2 = p["alpha"] + (1.0 - p["alpha"]) * np.where(c > 0, np.exp(-((B / safe) ** 2)), 0.0)
-        return np.full_like(c, p["alpha"]), k2
-
-
-def _isotropic(g):
-    zeros = np.zeros_like(g)
-    return np.stack([g, g, g, zeros, zeros, zeros])

@@ -176,7 +176,7 @@ FILTERS = {f.name: f for f in (
            {"sigma": 1.2e-4, "rho": 3.5e-4, "lambda_rel": 1e-3}),
     Filter("perona_malik", "Perona-Malik", "Edge-stopping smoothing",
            {"sigma": 1.2e-4, "lambda_rel": 1.0 / 13.0}),
-    Filter("flow", "Flow (Form)", "Seed 004's flow texture: smooths along a direction field on the surface "
+    Filter("flow", "Flow (Form)", "Diewald and Rumpf's flow texture: smooths along a direction field on the surface "
                                   "(the principal curvature directions), sharpens across it",
            {"sigma": 1e-5, "alpha": 1.0, "beta": 0.05, "lambda_rel": 0.1, "contrast": 0.0, "ink": 0.0}),
     Filter("gaussian", "Gaussian Blur", "Uniform blur on the surface", {}),

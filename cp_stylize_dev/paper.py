@@ -161,7 +161,8 @@ def fig_starry(out_dir, h=0.0125, log=print, scheme="fast"):
     return path
 
 
-#: Seed 004, Fig. 1: flow textures along both principal curvature directions of the torus.
+#: Diewald and Rumpf, "Visualization of principal curvature directions by anisotropic diffusion" (2000),
+#: Fig. 1: flow textures along both principal curvature directions of the torus.
 FLOW = {"T": 60, "contrast": 2.0, "beta": 0.05}    # T in units of h^2: streaks some ten spacings long
 
 

@@ -263,16 +263,16 @@ def test_a_step_above_the_stable_one_is_taken_in_equal_stable_parts(small_band):
 
 @pytest.fixture
 def operator_builds(monkeypatch):
-    from cp_stylize import diffusion
+    from cp_stylize.diffusion_tensor import StepOperators
 
     builds = []
-    operator = diffusion._StepOperators.operator
+    operator = StepOperators.operator
 
     def counted(self, rows, progress=None):
         builds.append(rows.copy())
         return operator(self, rows, progress)
 
-    monkeypatch.setattr(diffusion._StepOperators, "operator", counted)
+    monkeypatch.setattr(StepOperators, "operator", counted)
     return builds
 
 
