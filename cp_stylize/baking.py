@@ -10,6 +10,23 @@
 - :func:`bake_map`: an image over a surface's parameters ``point(s, t)``.
 
 Images are float arrays (H, W, C), row 0 at the bottom (see :mod:`~cp_stylize.texture`).
+
+Notes
+-----
+A covered texel with barycentric coordinates ``bary`` in face ``f`` maps
+to the 3-D point ``sum_i bary_i V[f_i]``, which lies on the mesh (no
+closest point search is needed), and takes the band's tricubic
+interpolant there, kept to the point's own sheet of the surface where
+another one passes within the stencil (``Band.interpolation_matrix``).  A margin texel finds its nearest covered texel (a
+Euclidean distance transform) and continues that texel's face map
+linearly: its UV point, pulled back to within two texels of the face's
+UV triangle, has barycentric coordinates (some negative) that give a
+point of the face's plane just beyond the face, which
+``mesh.closest_point`` snaps onto the surface, across the seam when there
+is one.  Bilinear filtering at an island's border thus reads the colours
+of the surface on the other side of the border, not a copy of the
+border, and seams stay invisible to second order in the texel size;
+farther margin texels repeat the colour two texels out, for mipmaps.
 """
 
 from __future__ import annotations
@@ -103,20 +120,8 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, pain
 
     Notes
     -----
-    A covered texel with barycentric coordinates ``bary`` in face ``f`` maps
-    to the 3-D point ``sum_i bary_i V[f_i]``, which lies on the mesh (no
-    closest point search is needed), and takes the band's tricubic
-    interpolant there, kept to the point's own sheet of the surface where
-    another one passes within the stencil (``Band.interpolation_matrix``).  A margin texel finds its nearest covered texel (a
-    Euclidean distance transform) and continues that texel's face map
-    linearly: its UV point, pulled back to within two texels of the face's
-    UV triangle, has barycentric coordinates (some negative) that give a
-    point of the face's plane just beyond the face, which
-    ``mesh.closest_point`` snaps onto the surface, across the seam when there
-    is one.  Bilinear filtering at an island's border thus reads the colours
-    of the surface on the other side of the border, not a copy of the
-    border, and seams stay invisible to second order in the texel size;
-    farther margin texels repeat the colour two texels out, for mipmaps.
+    The module's notes say how the covered texels and the margin find their
+    points on the surface.
     """
     mesh = check_mesh(band.surface)
     if not isinstance(atlas, Atlas):
@@ -125,6 +130,34 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, pain
         raise ValueError(f"the atlas has UVs for {atlas.uvs.shape[0]} faces, but the band's mesh has "
                          f"{mesh.n_input_faces}")
     margin = count(margin, "margin", minimum=0, unit=" number of texels")
+    values, channels, columns = _stacked(band, values, detail, paint)
+    texels = atlas_points(mesh, atlas, margin) if texels is None else texels
+    where, points, faces, barys = texels
+    report = progress or (lambda fraction: None)
+    share = 1.0 if paint is None else 0.5          # of the progress, for the interpolation
+    found = _interpolated(band, mesh, values, texels, matrix, lambda f: report(share * f))
+    colours = found[:, :channels]
+    if detail is not None:
+        original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
+        colours = lay_detail(colours, found[:, channels:2 * channels], original[:, :channels], detail.strength)
+    height = None
+    if paint is not None:
+        read = None if columns is None else found[:, found.shape[1] - columns.shape[1]:]
+        colours, height = paint(texels, colours, read, lambda f: report(share + (1.0 - share) * f))
+    background = np.full((1, channels), fill, dtype=values.dtype)
+    if limit is not None:
+        colours, background = limit(colours), limit(background)
+    image = _laid_out(np.asarray(colours, dtype=values.dtype), where, atlas.size, background)
+    image = image.reshape(atlas.size, atlas.size, channels)
+    if paint is None:
+        return image
+    return image, None if height is None else _laid_out(height.astype(np.float32), where, atlas.size, 0.0)
+
+
+def _stacked(band, values, detail, paint):
+    """The band ``values`` (N, C) checked, with the columns a bake-out also interpolates beside them (the
+    ``detail``'s sampled values, the ``paint``'s columns): ``(values (N, C + ...), C, paint's columns or
+    None)``."""
     values = band.check_values(values)
     channels = 1 if values.ndim == 1 else values.shape[1]
     extra = []
@@ -138,45 +171,34 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, pain
         extra.append(columns)
     if extra:
         values = np.hstack([values.reshape(band.size, channels)] + [e.astype(values.dtype) for e in extra])
-    texels = atlas_points(mesh, atlas, margin) if texels is None else texels
-    where, points, faces, barys = texels
-    size = atlas.size
-    found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
-    report = progress or (lambda fraction: None)
-    share = 1.0 if paint is None else 0.5          # of the progress, for the interpolation
+    return values, channels, columns
 
+
+def _interpolated(band, mesh, values, texels, matrix, progress):
+    """Band ``values`` (N,) or (N, K) interpolated at the :func:`atlas_points` ``texels``: (M, K), by
+    ``matrix`` (:func:`bake_matrix`) where given, else row block by row block on all cores."""
+    _, points, faces, barys = texels
+    found = np.empty((len(points), values.shape[1] if values.ndim == 2 else 1), dtype=values.dtype)
     if matrix is None:
         def interpolate(s):
             part = slice(s, s + _POINTS)
             found[part] = apply(_rows(band, mesh, points, faces, barys, part, values.dtype), values).reshape(
                 -1, found.shape[1])
 
-        map_parallel(interpolate, range(0, len(points), _POINTS), progress=lambda f: report(share * f))
+        map_parallel(interpolate, range(0, len(points), _POINTS), progress=progress)
     else:
         for j in range(found.shape[1]):
             found[:, j] = matrix @ np.ascontiguousarray(values.reshape(band.size, -1)[:, j])
-    colours = found[:, :channels]
-    if detail is not None:
-        original = np.asarray(detail.colour_at(faces, barys), dtype=values.dtype).reshape(len(points), -1)
-        colours = lay_detail(colours, found[:, channels:2 * channels], original[:, :channels], detail.strength)
-    height = None
-    if paint is not None:
-        read = None if columns is None else found[:, found.shape[1] - columns.shape[1]:]
-        colours, height = paint(texels, colours, read, lambda f: report(share + (1.0 - share) * f))
-    background = np.full((1, channels), fill, dtype=values.dtype)
-    if limit is not None:
-        colours, background = limit(colours), limit(background)
-    image = np.empty((size * size, channels), dtype=values.dtype)
+    return found
+
+
+def _laid_out(values, where, size, background):
+    """``values`` (M, ...) at the flat texels ``where`` (M,) of a ``size`` square image, ``background``
+    elsewhere: (size * size, ...) for (M, C), (size, size) for (M,)."""
+    image = np.empty((size * size,) + values.shape[1:], dtype=values.dtype)
     image[:] = background
-    image[where] = colours
-    image = image.reshape(size, size, channels)
-    if paint is None:
-        return image
-    if height is not None:
-        heights = np.zeros(size * size, dtype=np.float32)
-        heights[where] = height
-        height = heights.reshape(size, size)
-    return image, height
+    image[where] = values
+    return image if values.ndim > 1 else image.reshape(size, size)
 
 
 def texel_lengths(mesh, atlas, faces):

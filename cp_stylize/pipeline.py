@@ -330,15 +330,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         the atlas's surface points from an earlier run on the same mesh, grid
         and atlas, and keeps this run's for the next (see :mod:`cp_stylize.cache`).
     """
-    start = time.perf_counter()
-    timings = {}
-    clock = [start]
-
-    def lap(name):
-        now = time.perf_counter()
-        timings[name] = now - clock[0]
-        clock[0] = now
-
+    clock = _Clock()
     report = progress or (lambda f: None)
     say = log or (lambda msg: None)
     if settings.stroke_direction == "attribute" and np.shape(directions) != (len(faces), 3, 3):
@@ -347,14 +339,59 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     keep = cache is not None
     cache = RunCache() if cache is None else cache
     mesh, scale = normalised_mesh(vertices, faces, cache)
-    shape = cache.owner                 # the mesh's digest, which began the run in the cache
     if mesh.skipped_faces:
         say(f"skipped {mesh.skipped_faces} degenerate face(s)")
     report(0.0)
     if atlas is None:
         atlas = _atlas(mesh, settings.image_size, uvs, new_atlas, cache)
-    lap("atlas")
-    layout = (shape, digest(atlas.uvs, atlas.texels), atlas.size, settings.margin)
+    clock.lap("atlas")
+    band = _band(mesh, settings, cache, keep)
+    clock.lap("band")
+    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to a diameter of 2)")
+    report(0.1)
+    painted = (cache.owner, band.h, band.stencil, colour_digest(colours))     # the key of the band's colours
+    sampled, picture_at = _bake_in(mesh, band, colours, settings, cache, painted)
+    values = palette_colours(sampled, settings)
+    clock.lap("bake_in")
+    report(0.15)
+    field = stroke_field(band, settings, directions)
+    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
+                     field=field if settings.mode in DIRECTED_MODES else None,
+                     progress=lambda f: report(0.15 + 0.7 * f))
+    clock.lap("diffusion")
+    paint = None
+    if settings.strokes > 0 or settings.contours > 0:
+        paint = run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field, colours=colours,
+                             source=picture_at)
+        report(0.9)
+        clock.lap("painting")
+    image, height = _bake_out(mesh, band, result, atlas, settings, cache, (colours, sampled, painted), paint, report)
+    clock.lap("bake_out")
+    report(1.0)
+    return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
+                         spacing=settings.spacing / scale, seconds=clock.total(), timings=clock.timings,
+                         height=height if settings.relief > 0 else None)
+
+
+class _Clock:
+    """The seconds a run's stages take (:attr:`timings`, by name) and the whole run's."""
+
+    def __init__(self):
+        self.start = self.last = time.perf_counter()
+        self.timings = {}
+
+    def lap(self, name):
+        now = time.perf_counter()
+        self.timings[name] = now - self.last
+        self.last = now
+
+    def total(self):
+        return time.perf_counter() - self.start
+
+
+def _band(mesh, settings, cache, keep):
+    """The band of the normalised ``mesh`` at the settings' grid (kept in ``cache``; with ``keep``, the
+    structures its runs build are kept with it in its memo)."""
     stencil = stencil_for(settings.mode)
 
     def new_band():
@@ -363,15 +400,17 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
             band.memo = RunCache()      # the diffusion's operators stay with the band
         return band
 
-    band = cache.get("band", (shape, settings.spacing, stencil), new_band)
-    lap("band")
-    say(f"band: {band.size:,} points at h = {settings.spacing} (object normalised to a diameter of 2)")
-    report(0.1)
-    painted = (shape, settings.spacing, stencil, colour_digest(colours))
+    return cache.get("band", (cache.owner, settings.spacing, stencil), new_band)
+
+
+def _bake_in(mesh, band, colours, settings, cache, painted):
+    """The input colours at the band's closest points (N, C), kept in ``cache`` under the key ``painted``,
+    and ``picture_at(face, bary)``: the picture's colours at points of the mesh; where strokes paint, the
+    texture's UV seams healed (strokes cross them)."""
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
     heal = None
-    if settings.strokes > 0:              # a painting heals the texture's seams: its strokes cross them
-        heal = cache.get("seams", (shape, painted[3]), lambda: seam_healing(mesh, colours))
+    if settings.strokes > 0:
+        heal = cache.get("seams", (cache.owner, painted[3]), lambda: seam_healing(mesh, colours))
         if heal is not None:
             sampled = cache.get("healed", painted, lambda: read_only(heal(band.face, band.bary, sampled)))
 
@@ -379,27 +418,23 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         found = colours_at(face, bary, colours)
         return found if heal is None else heal(face, bary, found)
 
-    values = palette_colours(sampled, settings)
-    lap("bake_in")
-    report(0.15)
-    field = stroke_field(band, settings, directions)
-    result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
-                     field=field if settings.mode in DIRECTED_MODES else None,
-                     progress=lambda f: report(0.15 + 0.7 * f))
-    lap("diffusion")
+    return sampled, picture_at
+
+
+def _bake_out(mesh, band, result, atlas, settings, cache, inputs, paint, report):
+    """The image (and the paint's height, or None) of the filtered band values ``result`` on ``atlas``:
+    with the input's own detail laid back (without strokes; with them the painting keeps the detail),
+    the ``paint`` over it, every colour within the input colours' hull.  ``inputs``: the run's
+    colours, the band's samples of them and their key, from :func:`_bake_in`."""
+    colours, sampled, painted = inputs
+    layout = (cache.owner, digest(atlas.uvs, atlas.texels), atlas.size, settings.margin)
     detail = None
-    if settings.detail > 0 and settings.strokes <= 0:     # with strokes, the painting keeps the detail
+    if settings.detail > 0 and settings.strokes <= 0:
         # what the filter starts from: the sampled colours extended once, as every step extends
         detail = Detail(cache.get("extended", painted, lambda: read_only(band.extend(sampled))),
                         lambda face, bary: cache.get("texel_colours", (painted, layout),
                                                      lambda: read_only(colours_at(face, bary, colours))),
                         settings.detail)
-    paint = None
-    if settings.strokes > 0 or settings.contours > 0:
-        paint = run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field, colours=colours,
-                             source=picture_at)
-        report(0.9)
-        lap("painting")
     texels = cache.get("texels", layout,
                        lambda: tuple(read_only(a) for a in atlas_points(mesh, atlas, settings.margin)))
     matrix = None
@@ -409,9 +444,4 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     baked = bake_to_atlas(band, result, atlas, margin=settings.margin, detail=detail, paint=paint,
                           progress=lambda f: report(0.9 + 0.1 * f), texels=texels, matrix=matrix,
                           limit=ColourHull(input_colours(colours, settings)).limit)
-    image, height = baked if paint is not None else (baked, None)
-    lap("bake_out")
-    report(1.0)
-    return StylizeResult(image=np.clip(image, 0.0, 1.0), atlas=atlas, band_size=band.size,
-                         spacing=settings.spacing / scale, seconds=time.perf_counter() - start, timings=timings,
-                         height=height if settings.relief > 0 else None)
+    return baked if paint is not None else (baked, None)

@@ -39,75 +39,18 @@ def rasterise(uv, size, overlapping=False):
     by more than ``_INSET`` texels; with ``overlapping``, also the triangles
     that hold such a texel (sorted, distinct).
     """
-    p = uv * size - 0.5                                  # texel centres at integers
-    x0, y0, x1, y1, x2, y2 = (p[:, k, a] for k in range(3) for a in range(2))
-    det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area
-    edge = np.stack([np.hypot(x2 - x1, y2 - y1), np.hypot(x0 - x2, y0 - y2), np.hypot(x1 - x0, y1 - y0)], 1)
-    usable = (np.abs(det) > 2 * MIN_AREA) & np.all(np.isfinite(p.reshape(len(p), -1)), axis=1)
-    tri = np.flatnonzero(usable)
-    lo = np.clip(np.ceil(p[tri].min(axis=1) - _EDGE), 0, size).astype(np.int64)
-    hi = np.clip(np.floor(p[tri].max(axis=1) + _EDGE), -1, size - 1).astype(np.int64)
-    rows = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
-    cols = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
-    rows[cols == 0] = 0
-    # units: one texel row of one triangle's bounding box
-    unit_tri, unit_row = expand_runs(rows)
-    unit_row += lo[unit_tri, 1]
-    unit_cols = cols[unit_tri]
+    rows = _Rows(uv, size, overlapping)
     best_score = np.full(size * size, -np.inf, dtype=np.float32)
     best_tri = np.full(size * size, -1, dtype=np.int32)
     best_bary = np.zeros((size * size, 3), dtype=np.float32)
     claims = np.zeros(size * size, dtype=np.uint8)
-    bounds = split_counts(unit_cols, _TEXELS)
-
-    scratch = threading.local()                                         # one stamp array a worker thread
-
-    def candidates(span):
-        """The best triangle of each texel among the units ``span``, and the texels they claim."""
-        s, e = span
-        unit, col = expand_runs(unit_cols[s:e])
-        unit += s
-        t = unit_tri[unit]
-        k = tri[t]
-        qx = (col + lo[t, 0]).astype(np.float64)
-        qy = unit_row[unit].astype(np.float64)
-        l0 = ((x1[k] - qx) * (y2[k] - qy) - (x2[k] - qx) * (y1[k] - qy)) / det[k]
-        l1 = ((x2[k] - qx) * (y0[k] - qy) - (x0[k] - qx) * (y2[k] - qy)) / det[k]
-        l2 = 1.0 - l0 - l1
-        area = np.abs(det[k])
-        score = np.minimum(np.minimum(l0 * area / edge[k, 0], l1 * area / edge[k, 1]), l2 * area / edge[k, 2])
-        texel = unit_row[unit] * size + col + lo[t, 0]
-        inside = np.flatnonzero(score >= -_EDGE)
-        texel, score, k = texel[inside], score[inside], k[inside]
-        l0, l1, l2 = l0[inside], l1[inside], l2[inside]
-        # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
-        # so only the centres near edges, and the overlaps, need a sort to find their best triangle
-        deep = np.flatnonzero(score > _INSET)
-        deep_texel = texel[deep]
-        order = np.arange(len(deep), dtype=np.int32)
-        stamp = getattr(scratch, "stamp", None)                         # the last deep candidate of a texel
-        if stamp is None:
-            stamp = scratch.stamp = np.empty(size * size, dtype=np.int32)
-        stamp[deep_texel] = order
-        twice = deep_texel[stamp[deep_texel] != order]                   # held deeply by two triangles
-        if len(twice):
-            keep = _best_of(texel, score)
-        else:
-            near_edge = np.flatnonzero(score <= _INSET)
-            at = stamp[texel[near_edge]]
-            beaten = (at >= 0) & (at < len(deep))                       # stamp is not cleared: check it
-            beaten[beaten] = deep_texel[at[beaten]] == texel[near_edge[beaten]]   # a deep candidate wins
-            near_edge = near_edge[~beaten]
-            keep = np.concatenate([deep, near_edge[_best_of(texel[near_edge], score[near_edge])]])
-        held = (deep_texel, k[deep]) if overlapping else None
-        bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
-        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (deep_texel, twice), held
-
     # the spans side by side on the cores, a few at a time; merged in order, so ties go as in one pass
+    bounds = split_counts(rows.unit_cols, _TEXELS)
     spans = list(zip(bounds[:-1], bounds[1:]))
     holders = []
     for g in range(0, len(spans), 2 * workers()):
-        for texel, score, k, bary, (claimed, twice), held in map_parallel(candidates, spans[g:g + 2 * workers()]):
+        for texel, score, k, bary, (claimed, twice), held in map_parallel(rows.candidates,
+                                                                          spans[g:g + 2 * workers()]):
             holders.append(held)
             claims[claimed] = np.minimum(claims[claimed] + 1, 2)
             claims[twice] = 2
@@ -124,6 +67,73 @@ def rasterise(uv, size, overlapping=False):
         return raster
     held = [k[claims[t] > 1] for t, k in holders]
     return raster + (np.unique(np.concatenate(held)).astype(np.int64) if held else np.zeros(0, np.int64),)
+
+
+class _Rows:
+    """The texel rows of UV triangles ``uv`` (K, 3, 2) in a ``size`` square grid, as units (one texel row
+    of one triangle's bounding box), and their candidate texels (:meth:`candidates`)."""
+
+    def __init__(self, uv, size, overlapping):
+        p = uv * size - 0.5                                  # texel centres at integers
+        self.size, self.overlapping = size, overlapping
+        self.x = (p[:, 0, 0], p[:, 1, 0], p[:, 2, 0])
+        self.y = (p[:, 0, 1], p[:, 1, 1], p[:, 2, 1])
+        (x0, x1, x2), (y0, y1, y2) = self.x, self.y
+        self.det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area
+        self.edge = np.stack([np.hypot(x2 - x1, y2 - y1), np.hypot(x0 - x2, y0 - y2), np.hypot(x1 - x0, y1 - y0)], 1)
+        usable = (np.abs(self.det) > 2 * MIN_AREA) & np.all(np.isfinite(p.reshape(len(p), -1)), axis=1)
+        self.tri = np.flatnonzero(usable)
+        self.lo = np.clip(np.ceil(p[self.tri].min(axis=1) - _EDGE), 0, size).astype(np.int64)
+        hi = np.clip(np.floor(p[self.tri].max(axis=1) + _EDGE), -1, size - 1).astype(np.int64)
+        rows = np.maximum(hi[:, 1] - self.lo[:, 1] + 1, 0)
+        cols = np.maximum(hi[:, 0] - self.lo[:, 0] + 1, 0)
+        rows[cols == 0] = 0
+        self.unit_tri, self.unit_row = expand_runs(rows)
+        self.unit_row += self.lo[self.unit_tri, 1]
+        self.unit_cols = cols[self.unit_tri]
+        self.scratch = threading.local()                                # one stamp array a worker thread
+
+    def candidates(self, span):
+        """The best triangle of each texel among the units ``span``, and the texels they claim."""
+        (x0, x1, x2), (y0, y1, y2), det, edge, size = self.x, self.y, self.det, self.edge, self.size
+        s, e = span
+        unit, col = expand_runs(self.unit_cols[s:e])
+        unit += s
+        t = self.unit_tri[unit]
+        k = self.tri[t]
+        qx = (col + self.lo[t, 0]).astype(np.float64)
+        qy = self.unit_row[unit].astype(np.float64)
+        l0 = ((x1[k] - qx) * (y2[k] - qy) - (x2[k] - qx) * (y1[k] - qy)) / det[k]
+        l1 = ((x2[k] - qx) * (y0[k] - qy) - (x0[k] - qx) * (y2[k] - qy)) / det[k]
+        l2 = 1.0 - l0 - l1
+        area = np.abs(det[k])
+        score = np.minimum(np.minimum(l0 * area / edge[k, 0], l1 * area / edge[k, 1]), l2 * area / edge[k, 2])
+        texel = self.unit_row[unit] * size + col + self.lo[t, 0]
+        inside = np.flatnonzero(score >= -_EDGE)
+        texel, score, k = texel[inside], score[inside], k[inside]
+        l0, l1, l2 = l0[inside], l1[inside], l2[inside]
+        # a texel centre deep inside a triangle (by more than _INSET) lies in no other unless two overlap,
+        # so only the centres near edges, and the overlaps, need a sort to find their best triangle
+        deep = np.flatnonzero(score > _INSET)
+        deep_texel = texel[deep]
+        order = np.arange(len(deep), dtype=np.int32)
+        stamp = getattr(self.scratch, "stamp", None)                    # the last deep candidate of a texel
+        if stamp is None:
+            stamp = self.scratch.stamp = np.empty(size * size, dtype=np.int32)
+        stamp[deep_texel] = order
+        twice = deep_texel[stamp[deep_texel] != order]                   # held deeply by two triangles
+        if len(twice):
+            keep = _best_of(texel, score)
+        else:
+            near_edge = np.flatnonzero(score <= _INSET)
+            at = stamp[texel[near_edge]]
+            beaten = (at >= 0) & (at < len(deep))                       # stamp is not cleared: check it
+            beaten[beaten] = deep_texel[at[beaten]] == texel[near_edge[beaten]]   # a deep candidate wins
+            near_edge = near_edge[~beaten]
+            keep = np.concatenate([deep, near_edge[_best_of(texel[near_edge], score[near_edge])]])
+        held = (deep_texel, k[deep]) if self.overlapping else None
+        bary = np.column_stack([l0[keep], l1[keep], l2[keep]])
+        return texel[keep], score[keep].astype(np.float32), k[keep], bary, (deep_texel, twice), held
 
 
 def _best_of(texel, score):
