@@ -11,23 +11,8 @@ act on arrays of band values:
 - ``L``, the 7-point Laplacian ``sum_axes (v[x+e] - 2 v[x] + v[x-e]) / h^2``.
 
 The grid is aligned with the origin, so scaling a surface and ``h`` by the same
-factor scales the band exactly.
-
-Band width
-----------
-An interpolation stencil of degree ``p`` reaches ``(p + 1) / 2`` grid spacings
-from the interpolation point along each axis, and a finite difference stencil
-with offsets ``o`` reaches further by ``|o_a|`` along axis ``a``.  Every grid
-point that the time step reads therefore lies within
-
-.. math:: w = h \\max_o \\sqrt{\\sum_a ((p + 1)/2 + |o_a|)^2}
-
-of a surface point.  For the 7-point stencil in 3-D this is the
-Ruuth-Merriman/Macdonald rule ``sqrt((d-1)((p+1)/2)^2 + (s+(p+1)/2)^2) h``
-with ``s = 1``, ``d = 3``, ``p = 3``: ``sqrt(17) h``.  The 19-point stencil of
-the anisotropic scheme (paper, eq. (51)) reads diagonal neighbours and needs
-``sqrt(22) h``.  The band uses ``w`` times a small safety factor, and
-:meth:`Band.build` asserts that every point the stencils read is in the band.
+factor scales the band exactly.  How wide the band must be, and the stencils'
+and the interpolation's weights on the grid, are :mod:`cp_stylize.grid`'s.
 """
 
 from __future__ import annotations
@@ -37,89 +22,14 @@ import itertools
 import numpy as np
 import scipy.sparse as sp
 
+from .grid import (DEGREE, STENCILS, band_width, candidates, estimate_band_size, flat_index, lagrange_weights,
+                   stencil_offsets)
 from .sheets import Sheets
 from .sparse import SplitMatrix, map_parallel
 
 __all__ = ["Band", "band_width", "estimate_band_size", "flat_index", "STENCILS", "lagrange_weights"]
 
-_AXES = np.eye(3, dtype=np.int64)
-
-#: Finite difference stencils by name: the grid offsets each one reads.
-STENCILS = {
-    "laplacian": np.vstack([np.zeros((1, 3), np.int64), _AXES, -_AXES]),
-    "anisotropic": np.array(
-        [o for o in itertools.product((-1, 0, 1), repeat=3) if sum(map(abs, o)) <= 2], dtype=np.int64
-    ),
-}
-
-DEGREE = 3
 _CHUNK = 1 << 17
-
-
-def band_width(h, degree=DEGREE, stencil="laplacian"):
-    """Distance from the surface within which the band must hold every grid point.
-
-    Parameters
-    ----------
-    h : float
-        Grid spacing.
-    degree : int
-        Odd degree ``p`` of the interpolation polynomial.
-    stencil : str
-        A key of :data:`STENCILS`.
-
-    Returns
-    -------
-    float
-        ``h * max_o sqrt(sum_a ((p + 1)/2 + |o_a|)^2)``, without safety factor.
-    """
-    offsets = _stencil_offsets(stencil)
-    half = (degree + 1) / 2.0
-    return float(h * np.sqrt(((half + np.abs(offsets)) ** 2).sum(axis=1)).max())
-
-
-def estimate_band_size(area, h, *, stencil="laplacian", degree=DEGREE, safety=1.01):
-    """Expected number of band points around a surface of the given area.
-
-    Weyl's tube formula: a band of half-width ``w`` about a closed surface has
-    volume ``2 w A + (4 pi / 3) w^3 chi``; the curvature term is small where
-    ``w`` is small next to the surface's features and is left out here.
-    """
-    area, h = float(area), float(h)
-    if not np.isfinite(area) or area < 0:
-        raise ValueError(f"area must be a non-negative number, got {area!r}")
-    if not np.isfinite(h) or h <= 0:
-        raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
-    return int(round(2.0 * band_width(h, degree, stencil) * safety * area / h**3))
-
-
-def _stencil_offsets(stencil):
-    try:
-        return STENCILS[stencil]
-    except KeyError:
-        raise ValueError(f"stencil must be one of {sorted(STENCILS)}, got {stencil!r}") from None
-
-
-def lagrange_weights(t, degree=DEGREE):
-    """Lagrange basis weights on the nodes ``0, 1, ..., degree`` at positions ``t``.
-
-    Parameters
-    ----------
-    t : ndarray, shape (M,)
-        Positions in units of the grid spacing, relative to node 0.
-
-    Returns
-    -------
-    ndarray, shape (M, degree + 1)
-    """
-    t = np.asarray(t, dtype=np.float64)
-    nodes = np.arange(degree + 1)
-    w = np.ones(t.shape + (degree + 1,))
-    for j in nodes:
-        for m in nodes:
-            if m != j:
-                w[..., j] *= (t - m) / (j - m)
-    return w
 
 
 def apply(matrix, v):
@@ -198,7 +108,7 @@ class Band:
         self.normals = None if self.sheets is None else self.sheets.normals
         self.pieces = None if self.sheets is None else self.sheets.pieces
         moved = []
-        self.E = self._interpolation_matrix(self.cp, np.float32, self.normals, self.pieces, moved)
+        self.E = _interpolation_matrix(self, self.cp, np.float32, self.normals, self.pieces, moved)
         #: band points whose extension keeps to their own sheet with trilinear weights
         #: (:meth:`cp_stylize.sheets.Sheets.keep_to_own`)
         self.separated = int(sum(moved))
@@ -249,7 +159,7 @@ class Band:
         if own is not None:
             parts = list(own(h, width))
         else:
-            for ijk in _candidates(surface, h, width):
+            for ijk in candidates(surface, h, width):
                 found = on_faces(h * ijk) if on_faces is not None else surface.closest_point(h * ijk)
                 keep = np.abs(found[1]) <= width
                 parts.append((ijk[keep],) + tuple(a[keep] for a in found))
@@ -321,46 +231,6 @@ class Band:
         """Flat positions in the index volume of coordinates relative to its corner."""
         return flat_index(rel, self._shape)
 
-    def _interpolation_matrix(self, x, dtype, normals=None, pieces=None, moved=None):
-        x = np.asarray(x, dtype=np.float64)
-        if x.ndim != 2 or x.shape[1] != 3:
-            raise ValueError(f"interpolation points must have shape (M, 3), got {x.shape}")
-        p = self.degree
-        n_w = (p + 1) ** 3
-        g = x / self.h
-        base = np.floor(g).astype(np.int64) - (p - 1) // 2
-        nodes = np.array(list(itertools.product(range(p + 1), repeat=3)), dtype=np.int64)
-        node_flat = self._flat(nodes).astype(self._index.dtype)
-        index = self._index.ravel()
-        indices = np.empty((len(x), n_w), dtype=index.dtype)
-        data = np.empty((len(x), n_w), dtype=dtype)
-
-        def chunk(s):
-            e = min(s + _CHUNK, len(x))
-            w = [lagrange_weights(g[s:e, a] - base[s:e, a], p) for a in range(3)]
-            # tensor product, last axis fastest: the order of ``nodes``
-            data[s:e] = (w[0][:, :, None, None] * w[1][:, None, :, None] * w[2][:, None, None, :]).reshape(e - s, n_w)
-            rel = base[s:e] - self._lo
-            inside = np.all((rel >= 0) & (rel + p < self._shape), axis=1)
-            corner = np.where(inside, self._flat(rel), 0).astype(index.dtype)
-            np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
-            indices[s:e][~inside] = -1
-            if normals is not None and self.sheets is not None:
-                n = self.sheets.keep_to_own(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
-                                            normals[s:e], None if pieces is None else pieces[s:e], corner)
-                if moved is not None:
-                    moved.append(n)     # list.append is atomic: the chunks run on several threads
-
-        map_parallel(chunk, range(0, len(x), _CHUNK))
-        if len(x) and indices.min() < 0:
-            rows = np.flatnonzero((indices < 0).any(axis=1))
-            raise ValueError(
-                f"{len(rows)} interpolation point(s) have stencil points outside the band "
-                f"(first at {x[rows[0]].tolist()}): interpolate only at points on the surface"
-            )
-        indptr = np.arange(0, n_w * len(x) + 1, n_w, dtype=np.int64)
-        return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(len(x), self.size))
-
     def cut_links(self, nodes, rows=slice(None)):
         """Which finite difference links cross between sheets (:meth:`cp_stylize.sheets.Sheets.cut_links`):
         (M, K) bool for the band points ``rows`` and their neighbours ``nodes`` (M, K), or None for
@@ -383,7 +253,7 @@ class Band:
                 raise ValueError(f"normals must have shape ({len(x)}, 3), got {normals.shape}")
         if pieces is not None and self.pieces is None:
             raise ValueError("pieces apply to bands of triangle meshes only")
-        return self._interpolation_matrix(x, _float_type(dtype), normals, pieces)
+        return _interpolation_matrix(self, x, _float_type(dtype), normals, pieces)
 
     def interpolate(self, values, x, normals=None, pieces=None):
         """Values at surface points ``x`` (M, 3) interpolated from band ``values`` (N,) or (N, k);
@@ -430,8 +300,8 @@ class Band:
         key = (name, dtype)
         if key not in self._matrices:
             if name == "E":
-                m = self.E if dtype == self.E.dtype else self._interpolation_matrix(self.cp, dtype, self.normals,
-                                                                                    self.pieces)
+                m = (self.E if dtype == self.E.dtype
+                     else _interpolation_matrix(self, self.cp, dtype, self.normals, self.pieces))
             else:
                 m = self._build_laplacian(dtype)
             self._matrices[key] = m
@@ -457,7 +327,7 @@ class Band:
 
     def _check_stencils(self):
         """Every point E reads must have its whole finite difference stencil in the band."""
-        offsets = _stencil_offsets(self.stencil)
+        offsets = stencil_offsets(self.stencil)
         nbr = self.neighbors(offsets)
         self._stencil_table = (offsets, nbr)
         bad = self.inner & np.any(nbr < 0, axis=1)
@@ -475,20 +345,44 @@ class Band:
         return v.astype(_float_type(v.dtype), copy=False)
 
 
-def flat_index(rel, shape):
-    """Flat positions in a C-ordered volume of ``shape`` of integer coordinates ``rel`` (..., 3)."""
-    return (rel[..., 0] * shape[1] + rel[..., 1]) * shape[2] + rel[..., 2]
+def _interpolation_matrix(band, x, dtype, normals=None, pieces=None, moved=None):
+    """The (M, N) matrix of :meth:`Band.interpolation_matrix` at points ``x`` (M, 3) in ``dtype``;
+    ``moved`` (a list) gets the number of rows each block kept to their own sheet."""
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3:
+        raise ValueError(f"interpolation points must have shape (M, 3), got {x.shape}")
+    p = band.degree
+    n_w = (p + 1) ** 3
+    g = x / band.h
+    base = np.floor(g).astype(np.int64) - (p - 1) // 2
+    nodes = np.array(list(itertools.product(range(p + 1), repeat=3)), dtype=np.int64)
+    node_flat = band._flat(nodes).astype(band._index.dtype)
+    index = band._index.ravel()
+    indices = np.empty((len(x), n_w), dtype=index.dtype)
+    data = np.empty((len(x), n_w), dtype=dtype)
 
+    def chunk(s):
+        e = min(s + _CHUNK, len(x))
+        w = [lagrange_weights(g[s:e, a] - base[s:e, a], p) for a in range(3)]
+        # tensor product, last axis fastest: the order of ``nodes``
+        data[s:e] = (w[0][:, :, None, None] * w[1][:, None, :, None] * w[2][:, None, None, :]).reshape(e - s, n_w)
+        rel = base[s:e] - band._lo
+        inside = np.all((rel >= 0) & (rel + p < band._shape), axis=1)
+        corner = np.where(inside, band._flat(rel), 0).astype(index.dtype)
+        np.take(index, corner[:, None] + node_flat[None, :], out=indices[s:e])
+        indices[s:e][~inside] = -1
+        if normals is not None and band.sheets is not None:
+            n = band.sheets.keep_to_own(data[s:e], indices[s:e], x[s:e], g[s:e] - np.floor(g[s:e]), nodes,
+                                        normals[s:e], None if pieces is None else pieces[s:e], corner)
+            if moved is not None:
+                moved.append(n)     # list.append is atomic: the chunks run on several threads
 
-def _candidates(surface, h, width):
-    """Integer grid coordinates of the surface's grown bounding box, in chunks."""
-    lo, hi = (np.asarray(b, dtype=np.float64) for b in surface.bounds())
-    imin = np.floor((lo - width) / h).astype(np.int64)
-    imax = np.ceil((hi + width) / h).astype(np.int64)
-    ii = np.arange(imin[0], imax[0] + 1)
-    jj = np.arange(imin[1], imax[1] + 1)
-    per_slab = max(1, _CHUNK * 8 // (len(ii) * len(jj)))
-    for k0 in range(imin[2], imax[2] + 1, per_slab):
-        kk = np.arange(k0, min(k0 + per_slab, imax[2] + 1))
-        grid = np.stack(np.meshgrid(ii, jj, kk, indexing="ij"), axis=-1).reshape(-1, 3)
-        yield grid
+    map_parallel(chunk, range(0, len(x), _CHUNK))
+    if len(x) and indices.min() < 0:
+        rows = np.flatnonzero((indices < 0).any(axis=1))
+        raise ValueError(
+            f"{len(rows)} interpolation point(s) have stencil points outside the band "
+            f"(first at {x[rows[0]].tolist()}): interpolate only at points on the surface"
+        )
+    indptr = np.arange(0, n_w * len(x) + 1, n_w, dtype=np.int64)
+    return sp.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(len(x), band.size))

@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from .atlas import XATLAS_FACES
-from .band import estimate_band_size
+from .grid import estimate_band_size
 from .pipeline import KEEP_BAKE_TEXELS, normalisation, stencil_for
 
 __all__ = ["RunEstimate", "estimate", "estimate_run"]

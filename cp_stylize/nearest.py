@@ -6,8 +6,8 @@ point-triangle distances, and the search drops a triangle only where a bound
 proves another one nearer.
 
 Query points are grouped into a hierarchy of cells: for the band
-(:meth:`TriangleSearch.band`), blocks of ``4^3`` grid points, their ``2^3``
-sub-blocks, then the points; for any other query (:meth:`TriangleSearch.nearest`),
+(:meth:`TriangleSearch.band`, :mod:`cp_stylize.band_search`), blocks of ``4^3``
+grid points, their ``2^3`` sub-blocks, then the points; for any other query (:meth:`TriangleSearch.nearest`),
 an octree over the points.  One routine, :meth:`TriangleSearch._descend`,
 narrows the cells' candidate triangles from level to level with two bounds:
 
@@ -17,6 +17,14 @@ narrows the cells' candidate triangles from level to level with two bounds:
 - the distance to a triangle is a convex function with a unit gradient
   ``g``, so ``d(c + o) >= d(c) + g.o``: a child cell at offset ``o`` drops
   the triangles whose bound exceeds a distance already known there.
+
+In full: a child cell at ``c + o`` bounds its parent's faces from below by
+``d(c) + g.o - delta_child`` throughout the child (and ``d(c) - |o| -
+delta_child`` in any case; where ``d(c)`` is near zero, rounding makes ``g``
+unreliable and this bound takes over).  Faces whose bound exceeds the
+distance from the child's centre to the parent's nearest face, plus
+``delta_child``, are dropped before the exact distances of the rest are
+taken.
 
 The coarsest lists come from the triangles' bounding boxes grown by the band
 width (for the band: Ruuth's ``tri2cp`` boxes, per block of grid points) or
@@ -33,20 +41,14 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from .arrays import expand_runs, split_counts, unit_rows
-from .sparse import map_parallel, workers
+from .arrays import expand_runs, unit_rows
 
 __all__ = ["TriangleSearch"]
 
 #: Points handled at once, about (band chunks, query chunks).
 _CHUNK = 1 << 17
-#: Side, in grid points, of the blocks that start the band search.
-_BLOCK = 4
-#: Most block keys counted in a dense array when grouping the candidate pairs by block.
-_DENSE_KEYS = 1 << 25
 
 
 class TriangleSearch:
@@ -90,60 +92,8 @@ class TriangleSearch:
         return np.column_stack([pk[i][tri] + v * pk[3 + i][tri] + w * pk[6 + i][tri] for i in range(3)])
 
     def _closest(self, p, tri):
-        """Closest points of ``p`` (3, P) on the kept triangles ``tri`` (P,).
-
-        Returns
-        -------
-        v, w : ndarray, shape (P,)
-            The closest point is ``a + v (b - a) + w (c - a)``.
-        r : tuple of 3 ndarrays (P,)
-            The offset ``p - cp``.
-        d2 : ndarray, shape (P,)
-            Its squared length.
-
-        Notes
-        -----
-        The closest point is the projection on the triangle's plane where
-        that falls inside the triangle (non-negative barycentric
-        coordinates), and otherwise the nearest of the clamped projections on
-        the three edges (the regions of Ericson, *Real-Time Collision
-        Detection*, section 5.1.5).  Every dot product follows from
-        ``ap = p - a`` and the triangle's ``ab.ab``, ``ab.ac``, ``ac.ac``;
-        arrays are gathered component by component so that every operation
-        runs on contiguous memory.
-        """
-        pk = self._pack
-        ax, ay, az = (p[i] - pk[i][tri] for i in range(3))
-        abx, aby, abz, acx, acy, acz = (pk[i][tri] for i in range(3, 9))
-        abab, abac, acac, denom = (pk[i][tri] for i in range(9, 13))
-        d1 = abx * ax + aby * ay + abz * az
-        d2 = acx * ax + acy * ay + acz * az
-        ap2 = ax * ax + ay * ay + az * az
-        # edges AB (v = t), AC (w = t) and BC (v = 1 - t, w = t)
-        t1 = np.clip(d1 / abab, 0.0, 1.0)
-        e1 = ap2 - t1 * (2.0 * d1 - t1 * abab)
-        t2 = np.clip(d2 / acac, 0.0, 1.0)
-        e2 = ap2 - t2 * (2.0 * d2 - t2 * acac)
-        bc2 = abab + acac - 2.0 * abac
-        s = d2 - d1 - abac + abab                      # bc.bp
-        t3 = np.clip(s / bc2, 0.0, 1.0)
-        e3 = ap2 - 2.0 * d1 + abab - t3 * (2.0 * s - t3 * bc2)
-        first = e1 <= e2
-        v = np.where(first, t1, 0.0)
-        w = np.where(first, 0.0, t2)
-        third = e3 < np.minimum(e1, e2)
-        v = np.where(third, 1.0 - t3, v)
-        w = np.where(third, t3, w)
-        # the plane, where the projection is inside
-        vn = acac * d1 - abac * d2
-        wn = abab * d2 - abac * d1
-        inside = (vn >= 0) & (wn >= 0) & (vn + wn <= denom)
-        v = np.where(inside, vn / denom, v)
-        w = np.where(inside, wn / denom, w)
-        rx = ax - v * abx - w * acx
-        ry = ay - v * aby - w * acy
-        rz = az - v * abz - w * acz
-        return v, w, (rx, ry, rz), rx * rx + ry * ry + rz * rz
+        """Closest points of ``p`` (3, P) on the kept triangles ``tri`` (P,): :func:`closest_on`."""
+        return closest_on(self._pack, p, tri)
 
     def _build_index(self):
         """Sample points covering every kept triangle within ``self._radius``, and their k-d tree."""
@@ -205,17 +155,7 @@ class TriangleSearch:
 
         Notes
         -----
-        With ``dmin`` the least distance from a cell's centre ``c`` to its
-        faces and ``delta`` its radius, a face farther than ``dmin + 2 delta``
-        from ``c`` is nearer to none of the cell's points.  A child cell at
-        ``c + o`` first bounds its parent's faces from below: the distance to
-        a triangle is a convex function with gradient ``g`` of unit length,
-        so it exceeds ``d(c) + g.o - delta_child`` throughout the child (and
-        ``d(c) - |o| - delta_child`` in any case; where ``d(c)`` is near
-        zero, rounding makes ``g`` unreliable and this bound takes over).  Faces
-        whose bound exceeds the distance from the child's centre to the
-        parent's nearest face, plus ``delta_child``, are dropped before the
-        exact distances of the rest are taken.
+        The two bounds are the module's (see its notes).
         """
         eps = 1e-9 * self._scale
         last = len(centres) - 1
@@ -372,142 +312,11 @@ class TriangleSearch:
         return face
 
     def band(self, h, width):
-        """The grid points within ``width`` of the triangles with their closest points, in chunks.
+        """The grid points within ``width`` of the triangles with their closest points, in chunks
+        (:func:`cp_stylize.band_search.band_points`)."""
+        from .band_search import band_points
 
-        Parameters
-        ----------
-        h : float
-            Grid spacing; grid points are ``h * ijk``.
-        width : float
-            Band half-width.
-
-        Yields
-        ------
-        ijk : ndarray of int64, shape (K, 3)
-            Distinct integer grid coordinates, with every grid point within
-            ``width`` among them exactly once over all chunks (and a few
-            whose distance exceeds ``width`` by rounding: the caller keeps
-            ``sqrt(d2) <= width``).
-        tri, v, w, d2
-            As :meth:`nearest` returns them for ``h * ijk``.
-
-        Notes
-        -----
-        The grid is cut into blocks of ``4^3`` points.  A triangle is a
-        candidate of a block when the block meets the triangle's bounding
-        box grown by ``width`` and the block's centre lies within ``width``
-        plus the block's radius of the triangle's plane.  The candidate
-        lists then narrow through the blocks' ``2^3`` sub-blocks down to the
-        points (see the module notes).  Nothing scans the mesh's bounding
-        box.
-        """
-        h, width = float(h), float(width)
-        if not np.isfinite(h) or h <= 0:
-            raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
-        if not np.isfinite(width) or width < 0:
-            raise ValueError(f"width must be a non-negative number, got {width!r}")
-        blocks, pair_block, pair_tri = self._block_pairs(h, width)
-        local = np.stack(np.meshgrid(*[np.arange(_BLOCK)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-        half = _BLOCK // 2
-        corner = np.stack(np.meshgrid(*[np.arange(2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-        # a block's points by sub-block, each sub-block's in the same order: point 8 s + j of a block is
-        # child j of its sub-block s, as the sub-block 8 b + s is child s of block b
-        local = local[np.argsort(((local // half) * [4, 2, 1]).sum(axis=1), kind="stable")]
-        sub_offset = half * corner + 0.5 * (half - 1)
-        regular = [None, h * (sub_offset - 0.5 * (_BLOCK - 1)), h * (local[:8] - 0.5 * (half - 1))]
-        # chunks of blocks with a bounded number of points and (sub-block, triangle) pairs
-        per_block = np.bincount(pair_block, minlength=len(blocks))
-        pair_start = np.r_[0, np.cumsum(per_block)]
-        chunks = split_counts(np.maximum(8 * per_block, len(local)), 4 * _CHUNK)
-
-        def search(bounds):
-            s, e = bounds
-            b = blocks[s:e]
-            nb = len(b)
-            p0, p1 = pair_start[s], pair_start[e]
-            cells, tris = pair_block[p0:p1] - s, pair_tri[p0:p1]
-            base = _BLOCK * b
-            ijk = (base[:, None, :] + local[None, :, :]).reshape(-1, 3)
-            centres = [
-                np.ascontiguousarray((h * (base + 0.5 * (_BLOCK - 1))).T),
-                np.ascontiguousarray((h * (base[:, None, :] + sub_offset[None, :, :])).reshape(-1, 3).T),
-                np.ascontiguousarray((h * ijk).T),
-            ]
-            deltas = [np.full(nb, 0.5 * (_BLOCK - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
-                      np.full(nb * 8, 0.5 * (half - 1) * np.sqrt(3.0) * h * (1 + 1e-12)),
-                      np.zeros(len(ijk))]
-            parents = [None, np.repeat(np.arange(nb), 8), np.repeat(np.arange(nb * 8), 8)]
-            face, _ = self._descend(centres, deltas, parents, cells, tris, width=width, regular=regular)
-            keep = np.flatnonzero(face >= 0)
-            if len(keep) == 0:
-                return None
-            v, w, _, d2 = self._closest(centres[2][:, keep], face[keep])
-            return ijk[keep], face[keep], v, w, d2
-
-        # the chunks are independent: a few at a time, side by side on the worker threads
-        spans = list(zip(chunks[:-1], chunks[1:]))
-        step = 2 * workers()
-        for k in range(0, len(spans), step):
-            for found in map_parallel(search, spans[k:k + step]):
-                if found is not None:
-                    yield found
-
-    def _block_pairs(self, h, width):
-        """Blocks near the mesh and their candidate triangles.
-
-        Returns the distinct block coordinates (B, 3) and the pairs (block
-        index, triangle) sorted by block.
-        """
-        side = _BLOCK * h
-        a, ab, ac = self.edges()
-        corners = np.stack([a, a + ab, a + ac], axis=1)
-        pad = 1e-9 * (1.0 + np.abs(corners).max() / side)
-        lo = np.floor((corners.min(axis=1) - width) / side - pad).astype(np.int64)
-        hi = np.floor((corners.max(axis=1) + width) / side + pad).astype(np.int64)
-        extent = hi - lo + 1
-        slack = (width + 0.5 * np.sqrt(3.0) * (_BLOCK - 1) * h) * (1 + 1e-9)
-        origin = np.min(lo, axis=0)
-        dims = np.max(hi, axis=0) - origin + 1
-        strides = np.array([dims[1] * dims[2], dims[2], 1])
-        # the signed distance of the block at lo + o from a triangle's plane is base + side * n.o
-        base = np.einsum("ij,ij->i", h * (_BLOCK * lo + 0.5 * (_BLOCK - 1)) - a, self.normals)
-        key_type = np.int32 if dims.prod() < 2**31 else np.int64
-        lo_key = ((lo - origin) @ strides).astype(key_type)
-        keys, owners = [], []
-        # triangles with the same extent in blocks share their offsets: one broadcast per group and chunk
-        big = int(extent.max()) + 1
-        shapes, group = np.unique((extent[:, 0] * big + extent[:, 1]) * big + extent[:, 2], return_inverse=True)
-        shapes = np.column_stack([shapes // (big * big), (shapes // big) % big, shapes % big])
-        by_group = np.argsort(group, kind="stable")
-        bounds = np.r_[0, np.cumsum(np.bincount(group, minlength=len(shapes)))]
-        for g, shape in enumerate(shapes):
-            members = by_group[bounds[g]:bounds[g + 1]]
-            offsets = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, 3)
-            offset_key = (offsets @ strides).astype(key_type)
-            step = max(1, (_CHUNK * 8) // len(offsets))
-            for k in range(0, len(members), step):
-                tri = members[k:k + step]
-                plane = base[tri, None] + side * (self.normals[tri] @ offsets.T)
-                near = np.abs(plane) <= slack
-                row, col = np.nonzero(near)
-                keys.append(lo_key[tri][row] + offset_key[col])
-                owners.append(tri[row].astype(np.int32))
-        keys, owners = np.concatenate(keys), np.concatenate(owners)
-        if dims.prod() <= _DENSE_KEYS:
-            # a counting sort: the blocks' keys index a dense array
-            present = np.bincount(keys, minlength=int(dims.prod())) > 0
-            unique = np.flatnonzero(present)
-            compact = np.cumsum(present) - 1
-            row = compact[keys]
-        else:
-            unique, row = np.unique(keys, return_inverse=True)
-        del keys
-        # grouped by block (a CSR pattern), each block's triangles in ascending order
-        grouped = sp.csr_matrix((np.ones(len(owners), np.int8), (row, owners)), shape=(len(unique), len(self)))
-        del row, owners
-        pair_block = np.repeat(np.arange(len(unique)), np.diff(grouped.indptr))
-        rel = np.column_stack([unique // (dims[1] * dims[2]), (unique // dims[2]) % dims[1], unique % dims[2]])
-        return rel + origin, pair_block, grouped.indices
+        return band_points(self, h, width)
 
 
 def _subdivision_centroids(m):
@@ -538,3 +347,61 @@ def _closest_of(cells, tris, d, d2, least, n, width):
     dist2 = np.full(n, np.inf)
     dist2[cells[hit]] = d2[hit]
     return face, dist2
+
+
+def closest_on(pack, p, tri):
+    """Closest points of ``p`` (3, P) on the triangles ``tri`` (P,) of the columns ``pack`` (13 arrays: ``a``,
+    ``ab``, ``ac`` by component, ``ab.ab``, ``ab.ac``, ``ac.ac`` and the Gram determinant).
+
+    Returns
+    -------
+    v, w : ndarray, shape (P,)
+        The closest point is ``a + v (b - a) + w (c - a)``.
+    r : tuple of 3 ndarrays (P,)
+        The offset ``p - cp``.
+    d2 : ndarray, shape (P,)
+        Its squared length.
+
+    Notes
+    -----
+    The closest point is the projection on the triangle's plane where
+    that falls inside the triangle (non-negative barycentric
+    coordinates), and otherwise the nearest of the clamped projections on
+    the three edges (the regions of Ericson, *Real-Time Collision
+    Detection*, section 5.1.5).  Every dot product follows from
+    ``ap = p - a`` and the triangle's ``ab.ab``, ``ab.ac``, ``ac.ac``;
+    arrays are gathered component by component so that every operation
+    runs on contiguous memory.
+    """
+    pk = pack
+    ax, ay, az = (p[i] - pk[i][tri] for i in range(3))
+    abx, aby, abz, acx, acy, acz = (pk[i][tri] for i in range(3, 9))
+    abab, abac, acac, denom = (pk[i][tri] for i in range(9, 13))
+    d1 = abx * ax + aby * ay + abz * az
+    d2 = acx * ax + acy * ay + acz * az
+    ap2 = ax * ax + ay * ay + az * az
+    # edges AB (v = t), AC (w = t) and BC (v = 1 - t, w = t)
+    t1 = np.clip(d1 / abab, 0.0, 1.0)
+    e1 = ap2 - t1 * (2.0 * d1 - t1 * abab)
+    t2 = np.clip(d2 / acac, 0.0, 1.0)
+    e2 = ap2 - t2 * (2.0 * d2 - t2 * acac)
+    bc2 = abab + acac - 2.0 * abac
+    s = d2 - d1 - abac + abab                      # bc.bp
+    t3 = np.clip(s / bc2, 0.0, 1.0)
+    e3 = ap2 - 2.0 * d1 + abab - t3 * (2.0 * s - t3 * bc2)
+    first = e1 <= e2
+    v = np.where(first, t1, 0.0)
+    w = np.where(first, 0.0, t2)
+    third = e3 < np.minimum(e1, e2)
+    v = np.where(third, 1.0 - t3, v)
+    w = np.where(third, t3, w)
+    # the plane, where the projection is inside
+    vn = acac * d1 - abac * d2
+    wn = abab * d2 - abac * d1
+    inside = (vn >= 0) & (wn >= 0) & (vn + wn <= denom)
+    v = np.where(inside, vn / denom, v)
+    w = np.where(inside, wn / denom, w)
+    rx = ax - v * abx - w * acx
+    ry = ay - v * aby - w * acy
+    rz = az - v * abz - w * acz
+    return v, w, (rx, ry, rz), rx * rx + ry * ry + rz * rz

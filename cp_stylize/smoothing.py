@@ -40,7 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 
-from .band import flat_index
+from .grid import flat_index
 from .sparse import SplitMatrix, map_parallel
 
 __all__ = ["GaussianSmoother", "GridGaussian", "gaussian_taps", "taper"]

@@ -37,7 +37,7 @@ def test_the_search_finds_the_nearest_triangle_of_every_point(seed):
 @pytest.mark.parametrize("dense_keys", [True, False])
 def test_the_band_holds_every_grid_point_within_its_width_once(dense_keys, monkeypatch):
     if not dense_keys:      # the blocks' keys grouped by sorting, as for a grid too large for a dense count
-        monkeypatch.setattr("cp_stylize.nearest._DENSE_KEYS", 0)
+        monkeypatch.setattr("cp_stylize.band_search._DENSE_KEYS", 0)
     corners = _soup(60, 5)
     search = TriangleSearch(*corners)
     h, width = 0.1, 0.23
