@@ -198,8 +198,8 @@ DIRECTIONS = {
 
 #: How palette noise picks its colours: name -> (label, description), in the order the panel lists them.
 NOISE_MAPPINGS = {
-    "random": ("Random", "Any palette colour, by its weight, for the chosen share of points (the paper's "
-                         "recipe, for surfaces painted in the palette's colours)"),
+    "random": ("Random", "Any palette colour, by its weight, for the chosen share of points (the recipe of "
+                         "Naden, März and Macdonald, 2014, for surfaces painted in the palette's colours)"),
     "tone": ("By Tone and Hue", "The picture's colours mapped onto the palette by tone and hue (a grey sky to "
                                 "its blues, a yellow to its yellows; Fidelity keeps the picture's own); the chosen "
                                 "share of points picks a palette colour near its own (keeps the picture)"),
