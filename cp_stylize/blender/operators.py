@@ -132,9 +132,9 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         return stylize.prepare(context.active_object, settings, panel.output())
 
     def _finish(self, job):
-        from . import results, stylize
+        from . import results, writing
 
-        applied = stylize.apply(job)
+        applied = writing.apply(job)
         result = job.result
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
         reused = ", the last run's band reused" if "band" in job.reused else ""

@@ -424,7 +424,7 @@ def test_an_unexpected_error_is_one_message_and_changes_nothing(addon, monkeypat
                           "press Stylize again"),
 ])
 def test_changes_during_a_run_are_detected_before_anything_is_written(addon, change, message):
-    from cp_stylize.blender import stylize
+    from cp_stylize.blender import stylize, writing
 
     obj = _bare_sphere_with_material()
     job = stylize.prepare(obj, addon.to_settings(), addon.output())
@@ -440,7 +440,7 @@ def test_changes_during_a_run_are_detected_before_anything_is_written(addon, cha
         obj.material_slots[0].material = bpy.data.materials.new("Other")
     before = snapshot()
     with pytest.raises(stylize.StylizeError) as info:
-        stylize.apply(job)
+        writing.apply(job)
     assert str(info.value) == message
     assert_unchanged(before, snapshot())
 
