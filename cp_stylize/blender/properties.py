@@ -85,7 +85,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         description="Grid spacing of the computational band, relative to the object's size",
         items=[
             ("PREVIEW", "Preview", "Coarse grid (h = 0.016 for an object 2 units across): quick"),
-            ("STANDARD", "Standard", "h = 0.008 for an object 2 units across: the presets' own grid"),
+            ("STANDARD", "Standard", "h = 0.008 for an object 2 units across, the grid most presets use"),
             ("HIGH", "High", "h = 0.005 for an object 2 units across: fine strokes, about 2.5 times "
                              "the memory and time of Standard"),
             ("CUSTOM", "Custom", "Set the relative grid spacing yourself"),
