@@ -123,7 +123,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .diffusion_tensor import StepOperators
+from .diffusion_tensor import TINY, StepOperators
 from .heat_flow import PAPER_CFL, heat, time_steps
 from .parameters import DEFAULTS, DIRECTED_MODES, FILTER_PARAMETERS, MODES
 from .structure import GridSmoothing, HeatSmoothing
@@ -136,9 +136,6 @@ SCHEMES = ("fast", "reference")
 #: The fast scheme rebuilds the diffusion tensor once the values have changed
 #: by this root-mean-square fraction of their range since the last rebuild.
 LAG = 0.02
-
-_TINY = 1e-30
-
 
 def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, normals=None, field=None,
             progress=None, **params):
@@ -201,12 +198,10 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
     The module's *The method* gives the tensors of each mode, the fast
     scheme's smoothings and how the parameters scale with the surface.
     """
-    params, lag = _checked(band, mode, scheme, params, lag, field)
+    params, lag, field = _checked(band, mode, scheme, params, lag, field)
     u0 = band.check_values(u0)
     if not np.all(np.isfinite(u0)):
         raise ValueError("u0 holds NaN or infinite values")
-    if field is not None:
-        field = np.asarray(field, dtype=np.float64)
     if mode == "flow" and params["ink"] > 0:
         return _inked(band, u0, T=T, tau=tau, scheme=scheme, lag=lag, clamp=clamp, normals=normals, field=field,
                       progress=progress, **params)
@@ -221,8 +216,9 @@ def diffuse(band, u0, *, mode, T, tau=None, scheme="fast", lag=LAG, clamp=True, 
 
 
 def _checked(band, mode, scheme, given, lag, field):
-    """The filter parameters of ``mode`` (its defaults with ``given`` over them) and ``lag``, each checked,
-    and the mode, scheme and direction ``field`` checked; ValueError or TypeError naming what is wrong."""
+    """The filter parameters of ``mode`` (its defaults with ``given`` over them), ``lag`` and the direction
+    ``field`` (as float64, or None), each checked, and the mode and scheme checked; ValueError or TypeError
+    naming what is wrong."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if scheme not in SCHEMES:
@@ -248,10 +244,10 @@ def _checked(band, mode, scheme, given, lag, field):
     if field is not None and mode not in DIRECTED_MODES:
         raise ValueError(f"field= is for the modes {' and '.join(map(repr, DIRECTED_MODES))} only, not {mode!r}")
     if field is not None:
-        shape = np.shape(field)
-        if shape != (band.size, 3) or not np.all(np.isfinite(np.asarray(field, dtype=np.float64))):
-            raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {shape}")
-    return params, lag
+        field = np.asarray(field, dtype=np.float64)
+        if field.shape != (band.size, 3) or not np.all(np.isfinite(field)):
+            raise ValueError(f"field must be a finite array of shape ({band.size}, 3), got shape {field.shape}")
+    return params, lag, field
 
 
 def _evolve(rows, operators, n_steps, tau, T, lag, clamp, progress):
@@ -292,7 +288,7 @@ def _inked(band, u0, *, ink, **kw):
     ``u0 (1 - ink max(1 - 2 s, 0))`` with ``s`` the texture scaled to [0, 1], so that only its darker
     half draws."""
     s = diffuse(band, flow_noise(band, INK_SEED, u0.dtype), mode="flow", ink=0.0, **kw)
-    s = (s - s.min()) / max(float(s.max() - s.min()), _TINY)
+    s = (s - s.min()) / max(float(s.max() - s.min()), TINY)
     shade = (1.0 - ink * np.clip(1.0 - 2.0 * s, 0.0, 1.0)).astype(u0.dtype)   # its darker half: lines
     return u0 * (shade[:, None] if u0.ndim == 2 else shade)
 

@@ -20,9 +20,10 @@ from .stencils import TENSOR_COMPONENTS, DivergenceOperator, gershgorin_step
 from .structure import eigen_2x2, reduce_to_tangent
 from .tangent import surface_normals, tangent_basis
 
-__all__ = ["StepOperators"]
+__all__ = ["StepOperators", "TINY"]
 
-_TINY = 1e-30
+#: A floor for scales that divide: a picture without edges or contrast divides by this, not by 0.
+TINY = 1e-30
 
 
 class StepOperators:
@@ -169,7 +170,7 @@ class StepOperators:
         trace, second = self.smoothing.invariants(self.smoothing.presmoothed(rows) if beltrami else rows, beltrami)
         if progress is not None:
             progress(1.0)
-        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
+        lam2 = max((p["lambda_rel"] * self.scale) ** 2, TINY)
         if not beltrami:
             g = (1.0 / (1.0 + trace / lam2)).astype(self.work)
             return self._fill(_isotropic(g)), None
@@ -187,7 +188,7 @@ class StepOperators:
         trace, _ = self.smoothing.invariants(self.smoothing.presmoothed(rows), False)
         if progress is not None:
             progress(1.0)
-        lam2 = max((p["lambda_rel"] * self.scale) ** 2, _TINY)
+        lam2 = max((p["lambda_rel"] * self.scale) ** 2, TINY)
         g = (p["beta"] / (1.0 + trace / lam2)).astype(self.work)
         along = self.confidence * (p["alpha"] - g)
         e = self.direction
@@ -202,7 +203,7 @@ def _diffusivities(mode, c, p, scale):
     """EED's or CED's ``(kappa1, kappa2)`` from the coherence ``c`` and ``scale = ||c0||_inf``."""
     with np.errstate(over="ignore"):
         if mode == "eed":
-            lam = max(p["lambda_rel"] * scale, _TINY)
+            lam = max(p["lambda_rel"] * scale, TINY)
             return 1.0 / (1.0 + (c / lam) ** 2), np.ones_like(c)
         B = p["b_rel"] * scale
         safe = np.where(c > 0, c, 1.0)
