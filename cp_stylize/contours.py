@@ -58,7 +58,8 @@ def contour_field(band, colours, deviation, directions=None):
     lightness = np.ascontiguousarray(to_oklab(np.asarray(colours).reshape(band.size, -1)[:, :3])[:, 0],
                                      dtype=np.float32)
     smooth = GaussianSmoother(band, 0.5 * deviation**2, weights=taper(band.dist, band.width))(lightness[None, :])[0]
-    field = np.sqrt(sum((D @ smooth) ** 2 for D in grid_gradients(band, np.float32))) * deviation     # lightness across a deviation
+    # lightness across a deviation
+    field = np.sqrt(sum((D @ smooth) ** 2 for D in grid_gradients(band, np.float32))) * deviation
     if directions is not None:
         field = _along(band, field, directions, 0.5 * deviation)
     scale = max(float(np.quantile(field[band.inner] if band.inner is not None else field, 0.99)), LINE_FLOOR)

@@ -47,7 +47,8 @@ from .sampling import ColourInput, Texture, colours_at, picture_level, sample_co
 
 # ColourInput and Texture (cp_stylize.sampling) are named here too: a run's colours are given as them
 __all__ = ["RunCache", "ColourInput", "Texture", "StylizeResult", "UnusableUVs", "normalisation",
-           "normalised_mesh", "decide_atlas", "stencil_for", "stroke_field", "sample_directions", "input_colours", "stylize"]
+           "normalised_mesh", "decide_atlas", "stencil_for", "stroke_field", "sample_directions", "input_colours",
+           "stylize"]
 
 #: Every object is scaled so that its diameter (the greatest distance between two points of its surface)
 #: is this long: the paper's scale, at which a sphere has radius 1.
@@ -94,15 +95,17 @@ def normalisation(vertices, faces):
 
 
 def normalised_mesh(vertices, faces, cache):
-    """The mesh scaled to a diameter of 2 about its centre (:func:`normalisation`), kept in ``cache`` as
-    ``"mesh"``, and the scale it was multiplied by.  Begins a run on the mesh in ``cache``
-    (:meth:`cp_stylize.cache.RunCache.start`)."""
-    centre, scale = normalisation(vertices, faces)
+    """The mesh scaled to a diameter of 2 about its centre (:func:`normalisation`) and the scale it was
+    multiplied by, kept in ``cache`` as ``"mesh"`` (so the diameter is measured once a mesh).  Begins a
+    run on the mesh in ``cache`` (:meth:`cp_stylize.cache.RunCache.start`)."""
     shape = digest(vertices, faces)
+    if cache.owner == shape and cache.part("mesh") is not None:
+        centre = scale = None                   # kept: the cache gives it back
+    else:                                       # checked before the cache lets go of another mesh's parts
+        centre, scale = normalisation(vertices, faces)
     cache.start(shape)
-    mesh = cache.get("mesh", shape, lambda: TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale,
-                                                          faces))
-    return mesh, scale
+    return cache.get("mesh", shape,
+                     lambda: (TriangleMesh((np.asarray(vertices, dtype=np.float64) - centre) * scale, faces), scale))
 
 
 def decide_atlas(vertices, faces, size, uvs=None, *, new_atlas=True, cache=None):
