@@ -154,6 +154,34 @@ def bake_to_atlas(band, values, atlas, *, margin=16, fill=0.0, detail=None, pain
     return image, None if height is None else _laid_out(height.astype(np.float32), where, atlas.size, 0.0)
 
 
+class _Layered:
+    """Two paints of :func:`bake_to_atlas` (``paint=``), the second laid over the first."""
+
+    def __init__(self, under, over):
+        self.under, self.over = under, over
+        parts = [None if p.columns is None else np.asarray(p.columns).reshape(len(p.columns), -1) for p in (under, over)]
+        self._split = 0 if parts[0] is None else parts[0].shape[1]
+        given = [p for p in parts if p is not None]
+        self.columns = np.hstack(given) if given else None
+
+    def __call__(self, texels, colours, read, progress=None):
+        report = progress or (lambda fraction: None)
+        first, second = (None, None) if read is None else (read[:, :self._split], read[:, self._split:])
+        colours, low = self.under(texels, colours, None if self.under.columns is None else first,
+                                  lambda f: report(0.5 * f))
+        colours, high = self.over(texels, colours, None if self.over.columns is None else second,
+                                  lambda f: report(0.5 + 0.5 * f))
+        heights = [h for h in (low, high) if h is not None]
+        return colours, (heights[0] if len(heights) == 1 else sum(heights)) if heights else None
+
+
+def layered(under, over):
+    """``over`` laid over ``under`` as one paint of :func:`bake_to_atlas` (either may be None)."""
+    if under is None or over is None:
+        return over if under is None else under
+    return _Layered(under, over)
+
+
 def _stacked(band, values, detail, paint):
     """The band ``values`` (N, C) checked, with the columns a bake-out also interpolates beside them (the
     ``detail``'s sampled values, the ``paint``'s columns): ``(values (N, C + ...), C, paint's columns or

@@ -46,6 +46,12 @@ SECONDS_PER_RUN = 0.9
 SECONDS_STROKES_PER_TEXEL = 2.5e-6
 SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
 BAKED_SHARE = 0.6
+#: Oil paint (:mod:`cp_stylize.kuwahara`): seconds per band point for the sectors' statistics, and per
+#: baked texel for reading them at the bake-out; bytes per band point and per baked texel for them.
+SECONDS_OIL_PER_POINT = 1.4e-5
+SECONDS_OIL_PER_TEXEL = 2e-6
+BYTES_OIL_PER_POINT = 128
+BYTES_OIL_PER_TEXEL = 256
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
@@ -85,6 +91,9 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
         layers = settings.stroke_layers
         seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
     nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    if settings.oil_size > 0:
+        seconds += n_points * SECONDS_OIL_PER_POINT + BAKED_SHARE * texels * SECONDS_OIL_PER_TEXEL
+        nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL
     nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL

@@ -119,6 +119,18 @@ RUN = {p.name: p for p in (
     Parameter("contours", "Contours", "Dark lines along the picture's strong edges, drawn on the surface, this "
                                       "strong (0: none)", 0.0, 1.0, 0.0,
               file=(None, "contours")),
+    Parameter("oil_size", "Oil Paint", "Oil paint: the size of the neighbourhood each point takes its colour from "
+                                       "(object normalised to a diameter of 2; at least two grid spacings), "
+                                       "Kyprianidis, Kang and Döllner's anisotropic Kuwahara filter on the surface: "
+                                       "regions of like colour flatten, their edges stay (0: none)",
+              0.0, 0.2, 0.0, "length", precision=4, step=0.1, file=("oil", "size")),
+    Parameter("oil_sharpness", "Sharpness", "Oil paint: how sharply a region's edge divides its colours (0: the "
+                                            "neighbourhood's sectors averaged, smooth; 1: the most alike sector "
+                                            "alone, sharp)", 0.0, 1.0, 0.5, file=("oil", "sharpness")),
+    Parameter("oil_eccentricity", "Eccentricity", "Oil paint: how far the neighbourhood stretches along the "
+                                                  "picture's edges and strokes (0: round everywhere; 2: long "
+                                                  "and thin along a clear direction)", 0.0, 2.0, 1.0,
+              precision=3, step=1, file=("oil", "eccentricity")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from .atlas import UnusableUVs, uv_atlas
-from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas
+from .baking import Detail, atlas_points, bake_matrix, bake_to_atlas, layered
 from .cache import RunCache, digest
 from .colours import ColourHull, distinct_colours
 from .contours import ink_colour
@@ -35,13 +35,14 @@ from .curvature import principal_curvatures
 from .band import Band
 from .diffusion import diffuse
 from .extent import diameter
+from .kuwahara import Kuwahara
 from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
 from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
 from .parameters import DIRECTED_MODES
-from .stroke_field import form_field, level_field
+from .stroke_field import form_field, level_field, sample_directions
 from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
 
@@ -156,28 +157,6 @@ def stroke_field(band, settings, directions=None):
     if directions is None:
         raise ValueError("direction 'attribute' needs the mesh's vectors: pass directions= (F, 3, 3)")
     return sample_directions(band, directions)
-
-
-def sample_directions(band, corners):
-    """A line field (N, 3) at the band's closest points from per-corner vectors (F, 3, 3).
-
-    Each corner's vector is normalised (zero stays zero) and flipped to agree
-    with the face's first corner, so that ``v`` and ``-v`` give the same
-    field; the barycentric mix's length, at most 1, says how well the
-    corners agree.
-    """
-    if band.face is None:
-        raise ValueError("the band was not built on a triangle mesh: it has no faces to read directions from")
-    corners = np.asarray(corners, dtype=np.float64)
-    if corners.ndim != 3 or corners.shape[1:] != (3, 3) or corners.shape[0] <= int(band.face.max()):
-        raise ValueError(f"directions must have shape (F, 3, 3) for the mesh's faces, got {corners.shape}")
-    if not np.all(np.isfinite(corners)):
-        raise ValueError("directions hold NaN or infinite values")
-    length = np.linalg.norm(corners, axis=2, keepdims=True)
-    unit = np.divide(corners, length, out=np.zeros_like(corners), where=length > 0)
-    sign = np.where(np.sum(unit * unit[:, :1], axis=2) < 0, -1.0, 1.0)
-    unit *= sign[:, :, None]
-    return np.einsum("nk,nkc->nc", band.bary, unit[band.face])
 
 
 def stencil_for(mode):
@@ -362,10 +341,12 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                      field=field if settings.mode in DIRECTED_MODES else None,
                      progress=lambda f: report(0.15 + 0.7 * f))
     clock.lap("diffusion")
-    paint = None
+    # oil paint: the anisotropic Kuwahara filter's statistics, weighed at the texels
+    paint = (Kuwahara(band, result, settings.oil_size, settings.oil_sharpness, settings.oil_eccentricity)
+             if settings.oil_size > 0 else None)
     if settings.strokes > 0 or settings.contours > 0:
-        paint = run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field, colours=colours,
-                             source=picture_at)
+        paint = layered(paint, run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field,
+                                            colours=colours, source=picture_at))
         report(0.9)
         clock.lap("painting")
     image, height = _bake_out(mesh, band, result, atlas, settings, cache, (colours, sampled, painted), paint, report)

@@ -32,6 +32,11 @@ the extension)::
     seed = 1889
     palette = [["#0b1a3a", 6], ["#f3d54e", 1]]   # sRGB colour ("#rrggbb" or [r, g, b] in [0, 1]) and weight
 
+    [oil]                 # optional: oil paint, the anisotropic Kuwahara filter (cp_stylize.kuwahara)
+    size = 0.03           # the neighbourhood's radius (object 2 units across); 0: none
+    sharpness = 0.5
+    eccentricity = 1.0
+
     [output]              # optional
     size = 1024           # the image's texels a side
     margin = 16           # texels around the islands that repeat their border colours
@@ -94,6 +99,7 @@ _FILE = {
            "direction": "direction", "axis": "axis", "attribute": "attribute"},
     "noise": {"mapping": "noise_mapping", "seed": "seed", **_run_keys("noise"), "palette": "palette"},
     "strokes": _run_keys("strokes"),
+    "oil": _run_keys("oil"),
     "output": {"size": "image_size", "margin": "margin"},
 }
 
@@ -411,6 +417,7 @@ def preset_text(settings):
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
     lines += ["]", "", "[strokes]", *run("strokes")]
+    lines += ["", "[oil]", *run("oil")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

@@ -203,6 +203,9 @@ class StylizeSettings:
     keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
     relief: float = RUN["relief"].default          # the strokes' height, as a second image
+    oil_size: float = RUN["oil_size"].default      # oil paint: the Kuwahara filter's radius (cp_stylize.kuwahara)
+    oil_sharpness: float = RUN["oil_sharpness"].default
+    oil_eccentricity: float = RUN["oil_eccentricity"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
     seed: int = 0                   # a whole number in SEED_LIMITS

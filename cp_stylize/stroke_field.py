@@ -14,7 +14,7 @@ import numpy as np
 
 from .smoothing import GridGaussian, taper
 
-__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "FALLBACK_TRUST"]
+__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "sample_directions", "FALLBACK_TRUST"]
 
 class Swirls:
     """Swirling directions on any surface: the rotated surface gradient ``n x grad phi`` of a smooth
@@ -191,3 +191,25 @@ def _blend(first, second, weight, normals):
     doubled = (1.0 - weight) * np.exp(2j * angle) + weight        # first at angle 0
     half = 0.5 * np.angle(doubled)
     return _unit(np.cos(half)[:, None] * first + np.sin(half)[:, None] * side)
+
+
+def sample_directions(band, corners):
+    """A line field (N, 3) at the band's closest points from per-corner vectors (F, 3, 3).
+
+    Each corner's vector is normalised (zero stays zero) and flipped to agree
+    with the face's first corner, so that ``v`` and ``-v`` give the same
+    field; the barycentric mix's length, at most 1, says how well the
+    corners agree.
+    """
+    if band.face is None:
+        raise ValueError("the band was not built on a triangle mesh: it has no faces to read directions from")
+    corners = np.asarray(corners, dtype=np.float64)
+    if corners.ndim != 3 or corners.shape[1:] != (3, 3) or corners.shape[0] <= int(band.face.max()):
+        raise ValueError(f"directions must have shape (F, 3, 3) for the mesh's faces, got {corners.shape}")
+    if not np.all(np.isfinite(corners)):
+        raise ValueError("directions hold NaN or infinite values")
+    length = np.linalg.norm(corners, axis=2, keepdims=True)
+    unit = np.divide(corners, length, out=np.zeros_like(corners), where=length > 0)
+    sign = np.where(np.sum(unit * unit[:, :1], axis=2) < 0, -1.0, 1.0)
+    unit *= sign[:, :, None]
+    return np.einsum("nk,nkc->nc", band.bary, unit[band.face])

@@ -106,6 +106,17 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "detail")
 
 
+def _switched(layout, settings, switch, props, text=None):
+    """``switch`` (a strength or size, 0: off) and under it the ``props`` it governs, greyed while it is 0;
+    each of ``props`` is a property's name or ``(name, label)``."""
+    layout.prop(settings, switch, **({} if text is None else {"text": text}))
+    col = layout.column()
+    col.active = getattr(settings, switch) > 0
+    for prop in props:
+        name, label = (prop, None) if isinstance(prop, str) else prop
+        col.prop(settings, name, **({} if label is None else {"text": label}))
+
+
 class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
     bl_label = "Paint"
     bl_parent_id = "VIEW3D_PT_cp_stylize"
@@ -113,17 +124,19 @@ class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.cp_stylize
         layout = _split(self.layout)
-        layout.prop(settings, "strokes")
-        col = layout.column()
-        col.active = settings.strokes > 0
-        col.prop(settings, "stroke_width", text="Width")
-        col.prop(settings, "stroke_length", text="Length")
-        col.prop(settings, "stroke_layers")
-        col.prop(settings, "stroke_chain")
-        col.prop(settings, "stroke_jitter")
-        col.prop(settings, "swirl")
-        col.prop(settings, "relief")
+        _switched(layout, settings, "strokes", [("stroke_width", "Width"), ("stroke_length", "Length"),
+                                                "stroke_layers", "stroke_chain", "stroke_jitter", "swirl", "relief"])
         layout.prop(settings, "contours")
+
+
+class VIEW3D_PT_cp_stylize_oil(_Sidebar, bpy.types.Panel):
+    bl_label = "Oil Paint"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        _switched(_split(self.layout), context.scene.cp_stylize, "oil_size", ["oil_sharpness", "oil_eccentricity"],
+                  text="Size")
 
 
 class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
@@ -174,5 +187,6 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
             row.operator("cp_stylize.release", text="", icon="TRASH")
 
 
-classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_palette,
+classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
+           VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output)
