@@ -36,6 +36,7 @@ from .band import Band
 from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
+from .toon import Toon
 from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
 from .painting import painting
@@ -344,6 +345,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     # oil paint: the anisotropic Kuwahara filter's statistics, weighed at the texels
     paint = (Kuwahara(band, result, settings.oil_size, settings.oil_sharpness, settings.oil_eccentricity)
              if settings.oil_size > 0 else None)
+    if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
+        paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness))
     if settings.strokes > 0 or settings.contours > 0:
         paint = layered(paint, run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field,
                                             colours=colours, source=picture_at))

@@ -37,6 +37,10 @@ the extension)::
     sharpness = 0.5
     eccentricity = 1.0
 
+    [toon]                # optional: toon shading, the lightness in flat bands (cp_stylize.toon)
+    levels = 4            # 0: none
+    softness = 0.3
+
     [output]              # optional
     size = 1024           # the image's texels a side
     margin = 16           # texels around the islands that repeat their border colours
@@ -100,6 +104,7 @@ _FILE = {
     "noise": {"mapping": "noise_mapping", "seed": "seed", **_run_keys("noise"), "palette": "palette"},
     "strokes": _run_keys("strokes"),
     "oil": _run_keys("oil"),
+    "toon": _run_keys("toon"),
     "output": {"size": "image_size", "margin": "margin"},
 }
 
@@ -417,7 +422,7 @@ def preset_text(settings):
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
     lines += ["]", "", "[strokes]", *run("strokes")]
-    lines += ["", "[oil]", *run("oil")]
+    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

@@ -206,6 +206,8 @@ class StylizeSettings:
     oil_size: float = RUN["oil_size"].default      # oil paint: the Kuwahara filter's radius (cp_stylize.kuwahara)
     oil_sharpness: float = RUN["oil_sharpness"].default
     oil_eccentricity: float = RUN["oil_eccentricity"].default
+    toon_levels: int = RUN["toon_levels"].default   # toon bands of lightness (cp_stylize.toon); 0: none
+    toon_softness: float = RUN["toon_softness"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
     seed: int = 0                   # a whole number in SEED_LIMITS
@@ -228,6 +230,8 @@ class StylizeSettings:
             object.__setattr__(self, field, value)
         self._check_palette()
         self._check_direction()
+        if self.toon_levels == 1:
+            raise ValueError("toon_levels must be 0 (no toon shading) or from 2 to 8 bands of lightness, got 1")
 
     def _check_palette(self):
         if self.noise_on and not self.palette:

@@ -139,6 +139,15 @@ class VIEW3D_PT_cp_stylize_oil(_Sidebar, bpy.types.Panel):
                   text="Size")
 
 
+class VIEW3D_PT_cp_stylize_toon(_Sidebar, bpy.types.Panel):
+    bl_label = "Toon"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        _switched(_split(self.layout), context.scene.cp_stylize, "toon_levels", ["toon_softness"], text="Levels")
+
+
 class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
     bl_label = "Palette"
     bl_parent_id = "VIEW3D_PT_cp_stylize"
@@ -188,5 +197,5 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
 
 
 classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
-           VIEW3D_PT_cp_stylize_palette,
+           VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output)

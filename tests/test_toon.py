@@ -1,0 +1,80 @@
+"""Toon shading: the lightness in flat bands (Winnemöller, Olsen and Gooch, 2006)."""
+
+import numpy as np
+import pytest
+
+from cp_stylize.mesh import parametric_mesh
+from cp_stylize.oklab import from_oklab, to_oklab
+from cp_stylize.pipeline import ColourInput, stylize
+from cp_stylize.presets import StylizeSettings
+from cp_stylize.surfaces import Torus
+from cp_stylize.toon import Toon, quantise_lightness
+
+
+def _ramp(n=2001, hue=(0.8, 0.5, 0.3)):
+    """sRGB colours of one hue from black to white."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    return np.clip(t * np.asarray(hue) / max(hue) * 1.0, 0, 1)
+
+
+def test_hard_steps_leave_the_lightness_in_as_many_bands_as_asked():
+    greys = np.repeat(np.linspace(0, 1, 2001)[:, None], 3, axis=1)
+    for levels in (2, 3, 5, 8):
+        out = to_oklab(quantise_lightness(greys, levels, softness=0.0))[:, 0]
+        centres = (np.arange(levels) + 0.5) / levels
+        # all but the texels right at a step sit on a band's middle
+        off = np.min(np.abs(out[:, None] - centres[None, :]), axis=1)
+        assert np.mean(off < 0.01) > 0.9, levels
+        assert np.all(np.diff(out) >= -1e-9)          # lighter stays lighter
+
+
+def test_softness_makes_the_steps_gentler_and_keeps_the_bands_middles():
+    lightness = np.linspace(0.02, 0.98, 4001)
+    greys = from_oklab(np.column_stack([lightness, np.zeros_like(lightness), np.zeros_like(lightness)]))
+    hard = to_oklab(quantise_lightness(greys, 4, 0.0))[:, 0]
+    soft = to_oklab(quantise_lightness(greys, 4, 1.0))[:, 0]
+    slope = lambda l: np.max(np.diff(l) / np.diff(lightness))
+    assert slope(soft) < slope(hard) / 5
+    # at a band's middle both give the middle
+    for centre in (0.375, 0.625):
+        i = np.argmin(np.abs(lightness - centre))
+        assert hard[i] == pytest.approx(centre, abs=0.01) and soft[i] == pytest.approx(centre, abs=0.02)
+
+
+def test_hue_and_chroma_stay_the_colours_own():
+    rng = np.random.default_rng(0)
+    colours = 0.2 + 0.6 * rng.random((500, 3))          # well inside the gamut
+    before, after = to_oklab(colours), to_oklab(quantise_lightness(colours, 6, 0.3))
+    inside = np.all((quantise_lightness(colours, 6, 0.3) > 0.001) & (quantise_lightness(colours, 6, 0.3) < 0.999), axis=1)
+    np.testing.assert_allclose(after[inside, 1:], before[inside, 1:], atol=2e-3)
+
+
+def test_bad_levels_and_softness_are_refused():
+    with pytest.raises(ValueError, match="levels must be at least 2"):
+        quantise_lightness(np.zeros((2, 3)), 1)
+    with pytest.raises(ValueError, match="softness must lie in"):
+        quantise_lightness(np.zeros((2, 3)), 3, softness=1.5)
+    with pytest.raises(ValueError, match="toon_levels must be 0"):
+        StylizeSettings(mode="gaussian", toon_levels=1)
+    with pytest.raises(ValueError, match="toon_levels"):
+        StylizeSettings(mode="gaussian", toon_levels=9)
+
+
+def test_a_toon_run_paints_the_surface_in_flat_bands():
+    vertices, faces, uvs = parametric_mesh(Torus(10.0, 4.0).point, 48, 24, periodic_u=True, periodic_v=True)
+    image = np.repeat(_ramp(64, (1.0, 1.0, 1.0))[None, :, :], 64, axis=0).astype(np.float32)   # greys along u
+    colours = ColourInput.constant(len(faces), (0.0, 0.0, 0.0))
+    colours.textures.append((image, uvs, np.ones(len(faces), bool)))
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.03, image_size=128, toon_levels=3,
+                               toon_softness=0.0)
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    plain = stylize(vertices, faces, colours, settings.replace(toon_levels=0), uvs=uvs)
+    covered = plain.image.sum(axis=2) > 0
+    lightness = to_oklab(result.image[covered])[:, 0]
+    centres = (np.arange(3) + 0.5) / 3
+    on = np.min(np.abs(lightness[:, None] - centres[None, :]), axis=1) < 0.02
+    assert np.mean(on) > 0.8
+    # without toon shading the same run's lightness spreads over the ramp
+    spread = to_oklab(plain.image[covered])[:, 0]
+    assert np.mean(np.min(np.abs(spread[:, None] - centres[None, :]), axis=1) < 0.02) < 0.4
+    assert result.height is None and Toon.columns is None
