@@ -122,7 +122,8 @@ RUN = {p.name: p for p in (
     Parameter("oil_size", "Oil Paint", "Oil paint: the size of the neighbourhood each point takes its colour from "
                                        "(object normalised to a diameter of 2; at least two grid spacings), "
                                        "Kyprianidis, Kang and Döllner's anisotropic Kuwahara filter on the surface: "
-                                       "regions of like colour flatten, their edges stay (0: none)",
+                                       "regions of like colour flatten, their edges stay; Detail does not come back "
+                                       "over it (0: none)",
               0.0, 0.2, 0.0, "length", precision=4, step=0.1, file=("oil", "size")),
     Parameter("oil_sharpness", "Sharpness", "Oil paint: how sharply a region's edge divides its colours (0: the "
                                             "neighbourhood's sectors averaged, smooth; 1: the most alike sector "

@@ -7,7 +7,8 @@
   :func:`dab_aspects`: whether a painterly look keeps the subject (its
   strongest edges and its hues), draws no speckle, and paints dabs 3 to 5
   times longer than wide;
-- :func:`hull_excess`: how far colours lie outside the input colours' hull.
+- :func:`hull_excess`: how far colours lie outside the input colours' hull;
+- :func:`seam_step`: how far the two sides of a UV seam differ, against neighbours inside.
 
 The images measured are equirectangular (the sphere's own UVs): a texel is
 ``2 pi / width`` units wide at the equator, and the measures keep to the band
@@ -21,7 +22,7 @@ from scipy import ndimage
 from scipy.spatial import ConvexHull
 
 __all__ = ["photo_sphere", "city_plane", "psnr", "edge_sharpness", "edge_survival", "hue_difference", "speckle",
-           "dab_aspects", "hull_excess", "luminance", "equator_rows"]
+           "dab_aspects", "hull_excess", "luminance", "equator_rows", "seam_step"]
 
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
 
@@ -322,8 +323,9 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
     return figures
 
 
-def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, log=print):
-    """The painterly presets' measures on the three subjects (see :func:`subjects`); returns them as a dict.
+def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, log=print):
+    """The painterly presets' measures on the three subjects (see :func:`subjects`), and with ``oil`` the Oil
+    Paint preset's against Blender's Kuwahara node; returns them as a dict.
 
     Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
     subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
@@ -343,9 +345,7 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, log=print):
     figures.update(_denoisers(found["sphere"], near_zero, size, out_dir, log))
     for subject_name, subject in found.items():
         source = _run(subject, near_zero, size)
-        mask = source.atlas.coverage.reshape(size, size)
-        if subject_name == "sphere":
-            mask &= np.isin(np.arange(size), np.arange(size)[equator_rows(size)])[:, None]
+        mask = _mask(subject_name, source, size)
         texel = _texel(subject, source)
         for name in presets:
             settings = load_preset(name)
@@ -371,4 +371,52 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, log=print):
                 f"({counted:,} texels), speckle {100 * row['speckle']:.3f} %, dabs {row['dab_aspect'][0]:.2f} to "
                 f"{row['dab_aspect'][1]:.2f} long over wide (drawn: median {row['drawn_aspect'][1]:.2f}), "
                 f"{result.seconds:.0f} s")
+    if oil:
+        figures.update(_oil_paint(found, near_zero, size, log))
+    return figures
+
+
+def _mask(subject_name, source, size):
+    """The texels a subject's measures count: its atlas's, on the sphere within 45 degrees of the equator."""
+    mask = source.atlas.coverage.reshape(size, size)
+    if subject_name == "sphere":
+        mask &= np.isin(np.arange(size), np.arange(size)[equator_rows(size)])[:, None]
+    return mask
+
+
+def seam_step(image, rows):
+    """Across the UV seam of an equirectangular atlas (its first and last columns meet on the surface), at
+    ``rows``: the mean colour difference there, and between neighbouring columns inside."""
+    image = np.asarray(image, dtype=np.float64)[rows]
+    inside = np.abs(np.diff(image, axis=1)).mean()
+    return float(np.abs(image[:, 0] - image[:, -1]).mean()), float(inside)
+
+
+def _oil_paint(found, near_zero, size, log):
+    """The Oil Paint preset against Blender's Kuwahara node (:func:`cp_stylize_dev.scene.kuwahara_node`) on
+    each subject's picture: the edge measure of both, at half the filter's size, and on the sphere the
+    step across its UV seam against the steps inside."""
+    from cp_stylize.presets import load_preset
+
+    from .scene import kuwahara_node
+
+    oil = load_preset("oil_paint")
+    figures = {}
+    for name, subject in found.items():
+        vertices, faces, uvs, image, wrap = subject
+        source = _run(subject, near_zero, size)
+        mask = _mask(name, source, size)
+        scale_px = 0.5 * oil.oil_size / _texel(subject, source)
+        ours = _run(subject, oil, size)
+        node = _run((vertices, faces, uvs, kuwahara_node(np.asarray(image, np.float32)), wrap), near_zero, size)
+        row = figures[f"{name}_oil_paint"] = {"edges": edge_survival(ours.image, source.image, scale_px, mask),
+                                              "node_edges": edge_survival(node.image, source.image, scale_px, mask),
+                                              "seconds": ours.seconds}
+        if name == "sphere":
+            rows = np.flatnonzero(mask[:, 0] & mask[:, -1])
+            row["seam"], row["node_seam"] = seam_step(ours.image, rows), seam_step(node.image, rows)
+        log(f"{name:8s} oil_paint       edges {row['edges']:.2f} (Blender's Kuwahara node {row['node_edges']:.2f}), "
+            + (f"across the UV seam {row['seam'][0]:.4f} against {row['seam'][1]:.4f} inside (the node "
+               f"{row['node_seam'][0]:.4f} against {row['node_seam'][1]:.4f}), " if "seam" in row else "")
+            + f"{ours.seconds:.0f} s")
     return figures

@@ -147,3 +147,22 @@ def test_strokes_show_the_pictures_detail_finer_than_the_band_with_detail_and_no
                                            .image)[mask], high_pass(source.image)[mask])[0, 1] for d in (0.8, 0.0))
     print(f"\nthe picture's fine detail in the strokes: correlation {kept:.2f} with detail 0.8, {dropped:.2f} with 0")
     assert kept > 0.5 and dropped < 0.2
+
+
+def test_oil_paint_keeps_the_subject_and_paints_across_the_uv_seam(torus):
+    from cp_stylize_dev.looks import edge_survival, seam_step
+
+    size = 256
+    picture = _picture(size)                      # periodic in u and v: no edge where the UV map is cut
+    vertices, faces, uvs = torus
+    colours = ColourInput(textures=[Texture(picture, uvs, np.ones(len(faces), bool))])
+    settings = load_preset("oil_paint").replace(spacing=0.016, image_size=size)
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    source = stylize(vertices, faces, colours, StylizeSettings(mode="eed", T=1e-6, spacing=0.016, image_size=size),
+                     uvs=uvs)
+    mask = result.atlas.coverage.reshape(size, size)
+    texel = 2.0 / 2.9 * 2 * np.pi * 1.0 / size        # along u at the torus's middle, normalised to a diameter of 2
+    assert edge_survival(result.image, source.image, 0.5 * settings.oil_size / texel, mask) >= 0.8
+    # the first and last columns meet on the surface: the paint runs on across them as it does inside
+    across, inside = seam_step(result.image, np.arange(size))
+    assert across <= 1.5 * inside

@@ -72,6 +72,10 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     painted, _ = estimate_run(100_000, ced.replace(strokes=1.0))
     larger, _ = estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048))
     assert s1 < painted < larger
+    # oil paint costs by the band point (the sectors' statistics) and by the texel (reading them)
+    oil = estimate_run(100_000, ced.replace(oil_size=0.03))
+    assert oil[0] > s1 + 1.0 and oil[1] > b1 + 100_000 * 100
+    assert estimate_run(200_000, ced.replace(oil_size=0.03))[0] - oil[0] > per_points(ced)[0] + 1.0
     # the closest point search costs by the triangle, the atlas by the texel, in time and memory
     scan = estimate_run(100_000, ced, triangles=1_000_000)
     big = estimate_run(100_000, ced.replace(image_size=4096))

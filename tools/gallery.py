@@ -137,7 +137,7 @@ def crop(path, kind):
     return save_jpeg(path.replace(".jpg", "_crop.jpg"), pixels[r:r + CROP, c:c + CROP])
 
 
-def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
+def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", log=print):
     os.makedirs(out_dir, exist_ok=True)
     for kind in subjects:            # the photographs themselves, to compare against
         render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log)
@@ -146,7 +146,7 @@ def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, log=print):
         cells = []
         for kind in subjects:
             path = os.path.join(out_dir, f"{kind}_{preset}.jpg")
-            render(kind, preset, path, log=log)
+            render(kind, preset, path, quality=quality, log=log)
             crop(path, kind)
             cells.append(figures.panel(scene.read_image(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
         rows.append(cells)
@@ -171,8 +171,11 @@ def main(argv=None):
     parser.add_argument("--out", default="gallery_out", help="output folder (default: gallery_out)")
     parser.add_argument("--presets", nargs="+", default=list(PRESETS))
     parser.add_argument("--subjects", nargs="+", default=list(SUBJECTS))
+    parser.add_argument("--quality", default="STANDARD", choices=["PREVIEW", "STANDARD", "HIGH", "PRESET"],
+                        help="the grid (default: STANDARD); PRESET: each preset's own")
     args = parser.parse_args(argv)
-    run(args.out, presets=args.presets, subjects=args.subjects)
+    run(args.out, presets=args.presets, subjects=args.subjects,
+        quality=None if args.quality == "PRESET" else args.quality)
 
 
 if __name__ == "__main__":

@@ -158,11 +158,13 @@ def stylize_and_watch(act_at=None, action=None):
 def scenario_panel():
     """The sidebar's Stylize tab, with every panel open, for every mode."""
     panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
-    palette, output = panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output
-    for cls in (output, palette):   # open the Palette sub-panel, which starts closed; the order stays
+    # open the Oil Paint, Toon and Palette sub-panels, which start closed; the order stays
+    after = [panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_palette,
+             panels.VIEW3D_PT_cp_stylize_output]
+    for cls in reversed(after):
         bpy.utils.unregister_class(cls)
-    palette.bl_options = set()
-    for cls in (palette, output):
+    for cls in after:
+        cls.bl_options = set()
         bpy.utils.register_class(cls)
     in_view3d(bpy.ops.cp_stylize.preset_load, name="starry_night")
     _, area, _, sidebar = view3d()
@@ -183,6 +185,12 @@ def scenario_panel():
         yield 1.5
         screenshot(f"panel_direction_{direction}", sidebar)
     facts["directions"] = ["axis", "attribute"]
+    # oil paint and toon bands on: their settings come alive
+    settings.direction = "texture"
+    settings.oil_size, settings.toon_levels = 0.03, 4
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_oil_toon", sidebar)
 
 
 def scenario_undo():

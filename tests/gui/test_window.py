@@ -84,6 +84,7 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
         assert os.path.getsize(facts["screenshots"][f"panel_{mode}_crop"]) > 10_000, mode
     for direction in facts["directions"]:
         assert os.path.getsize(facts["screenshots"][f"panel_direction_{direction}_crop"]) > 10_000, direction
+    assert os.path.getsize(facts["screenshots"]["panel_oil_toon_crop"]) > 10_000
 
 
 def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(screenshots, extension_zip, tmp_path):
