@@ -127,17 +127,19 @@ RUN = {p.name: p for p in (
               0.0, 0.2, 0.0, "length", precision=4, step=0.1, file=("oil", "size")),
     Parameter("oil_sharpness", "Sharpness", "Oil paint: how sharply a region's edge divides its colours (0: the "
                                             "neighbourhood's sectors averaged, smooth; 1: the most alike sector "
-                                            "alone, sharp)", 0.0, 1.0, 0.5, file=("oil", "sharpness")),
+                                            "alone, sharp)", 0.0, 1.0, 0.5, precision=2,
+              file=("oil", "sharpness")),
     Parameter("oil_eccentricity", "Eccentricity", "Oil paint: how far the neighbourhood stretches along the "
                                                   "picture's edges and strokes (0: round everywhere; 2: long "
                                                   "and thin along a clear direction)", 0.0, 2.0, 1.0,
-              precision=3, step=1, file=("oil", "eccentricity")),
+              precision=2, step=1, file=("oil", "eccentricity")),
     Parameter("toon_levels", "Toon Levels", "Toon shading: the picture's lightness in this many flat bands, hue "
                                             "and chroma its own (Winnemöller, Olsen and Gooch's quantisation; "
                                             "0: none)", 0, 8, 0, "count", precision=0, step=100,
               file=("toon", "levels")),
     Parameter("toon_softness", "Softness", "Toon shading: how gently one band of lightness steps to the next (0: a "
-                                           "hard step; 1: a gentle ramp)", 0.0, 1.0, 0.3, file=("toon", "softness")),
+                                           "hard step; 1: a gentle ramp)", 0.0, 1.0, 0.3, precision=2,
+              file=("toon", "softness")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),

@@ -231,7 +231,8 @@ class StylizeSettings:
         self._check_palette()
         self._check_direction()
         if self.toon_levels == 1:
-            raise ValueError("toon_levels must be 0 (no toon shading) or from 2 to 8 bands of lightness, got 1")
+            raise ValueError("Toon Levels (toon_levels, [toon] levels in a preset) must be 0 (no toon shading) or "
+                             "from 2 to 8 bands of lightness, got 1")
 
     def _check_palette(self):
         if self.noise_on and not self.palette:

@@ -54,7 +54,7 @@ def test_bad_levels_and_softness_are_refused():
         quantise_lightness(np.zeros((2, 3)), 1)
     with pytest.raises(ValueError, match="softness must lie in"):
         quantise_lightness(np.zeros((2, 3)), 3, softness=1.5)
-    with pytest.raises(ValueError, match="toon_levels must be 0"):
+    with pytest.raises(ValueError, match=r"Toon Levels \(toon_levels, \[toon\] levels in a preset\) must be 0"):
         StylizeSettings(mode="gaussian", toon_levels=1)
     with pytest.raises(ValueError, match="toon_levels"):
         StylizeSettings(mode="gaussian", toon_levels=9)
