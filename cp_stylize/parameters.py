@@ -34,9 +34,13 @@ class Parameter:
     maximum: float
     default: float
     unit: str = "ratio"      # "time", "length", "ratio" or "count" (a whole number)
-    precision: int = 6       # digits the panel shows
+    precision: int = None    # digits the panel shows: by default 2 for a ratio (a share or strength), else 6
     step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
     file: tuple = (None, None)   # a run parameter's place in a preset file: (table or None for the top, key)
+
+    def __post_init__(self):
+        if self.precision is None:
+            object.__setattr__(self, "precision", 2 if self.unit == "ratio" else 6)
 
     def check(self, value):
         """``value`` as a float (an int for a count), or ValueError naming the parameter, its limits and the
