@@ -172,7 +172,7 @@ class _Layered:
         colours, high = self.over(texels, colours, None if self.over.columns is None else second,
                                   lambda f: report(0.5 + 0.5 * f))
         heights = [h for h in (low, high) if h is not None]
-        return colours, (heights[0] if len(heights) == 1 else sum(heights)) if heights else None
+        return colours, sum(heights) if heights else None
 
 
 def layered(under, over):

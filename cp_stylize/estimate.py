@@ -49,7 +49,7 @@ BAKED_SHARE = 0.6
 #: Oil paint (:mod:`cp_stylize.kuwahara`): seconds per band point for the sectors' statistics, and per
 #: baked texel for reading them at the bake-out; bytes per band point and per baked texel for them.
 SECONDS_OIL_PER_POINT = 1.4e-5
-SECONDS_OIL_PER_TEXEL = 2e-6
+SECONDS_OIL_PER_TEXEL = 5e-6
 BYTES_OIL_PER_POINT = 128
 BYTES_OIL_PER_TEXEL = 256
 

@@ -345,6 +345,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     # oil paint: the anisotropic Kuwahara filter's statistics, weighed at the texels
     paint = (Kuwahara(band, result, settings.oil_size, settings.oil_sharpness, settings.oil_eccentricity)
              if settings.oil_size > 0 else None)
+    if paint is not None:
+        clock.lap("oil")
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness))
     if settings.strokes > 0 or settings.contours > 0:
