@@ -80,16 +80,15 @@ def _pattern():
 def _axes(band, values, radius, eccentricity):
     """The ellipse's axes at the band's nodes: along the structure (N, 3) and across it (N, 3), each as
     long as its half axis."""
-    from .structure import eigen_2x2, grid_gradients, products, reduce_to_tangent
+    from .structure import along_structure, grid_gradients, products
     from .tangent import tangent_basis
 
     J = products(np.ascontiguousarray(values.T), grid_gradients(band, np.float32))
     basis = tangent_basis(band)                                  # (N, 3, 2)
     q0, q1 = np.ascontiguousarray(basis.transpose(2, 1, 0), dtype=np.float32)
     smoothing = GridGaussian(band, 0.5 * (0.5 * radius) ** 2, weights=taper(band.dist, 3.0 * band.h))
-    mu1, mu2, c, s = eigen_2x2(*reduce_to_tangent(smoothing(J), q0, q1))
-    coherence = (mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)
-    along = np.ascontiguousarray((q1 * c - q0 * s).T, dtype=np.float64)
+    along, _, coherence = along_structure(smoothing(J), q0, q1)
+    along = along.astype(np.float64)
     across = np.cross(np.cross(basis[:, :, 0], basis[:, :, 1]), along)
     stretch = 1.0 + eccentricity * coherence                     # the paper's (alpha + A) / alpha, alpha = 1 / e
     return along * (radius * stretch)[:, None], across * (radius / stretch)[:, None]

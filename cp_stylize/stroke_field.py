@@ -59,7 +59,7 @@ class StrokeField:
     @classmethod
     def layers(cls, band, values, lengths):
         """A field for each dab length of ``lengths``, of the structure of band ``values`` (N, C)."""
-        from .structure import eigen_2x2, grid_gradients, products, reduce_to_tangent
+        from .structure import along_structure, grid_gradients, products
         from .tangent import tangent_basis
 
         rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
@@ -70,13 +70,12 @@ class StrokeField:
             rho = 0.5 * (0.5 * length) ** 2
             smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
                          else smoothing.at_time(rho))
-            mu1, mu2, c, s = eigen_2x2(*reduce_to_tangent(smoothing(J), q0, q1))
+            direction, mu1, coherence = along_structure(smoothing(J), q0, q1)
             strength = np.sqrt(np.maximum(mu1, 0.0))
-            coherence = (mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)
             # a structure counts where it is coherent and among the stronger of the surface's
             confidence = (np.clip(coherence / 0.5, 0.0, 1.0)
                           * np.clip(strength / max(float(np.quantile(strength, 0.75)), 1e-12), 0.0, 1.0))
-            fields.append(cls(band, np.ascontiguousarray((q1 * c - q0 * s).T), confidence, strength))
+            fields.append(cls(band, direction, confidence, strength))
         return fields
 
     def at(self, points, normals, swirl=0.0, swirls=None, field=None, broad=None, level=None):

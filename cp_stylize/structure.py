@@ -25,7 +25,7 @@ from .smoothing import GaussianSmoother, GridGaussian, taper
 from .sparse import SplitMatrix
 from .stencils import TENSOR_COMPONENTS, gradient_matrices
 
-__all__ = ["products", "outer_products", "invariants", "structure_tensor", "reduce_to_tangent", "eigen_2x2",
+__all__ = ["products", "outer_products", "invariants", "structure_tensor", "reduce_to_tangent", "eigen_2x2", "along_structure",
            "grid_gradients", "HeatSmoothing", "GridSmoothing"]
 
 
@@ -115,6 +115,14 @@ def eigen_2x2(a, b, d):
     c1 = np.where(degenerate, 1.0, x / safe)
     s1 = np.where(degenerate, 0.0, y / safe)
     return mu1, mu2, c1, s1
+
+
+def along_structure(J, q0, q1):
+    """Of tangent structure tensors: the unit direction along the structure (N, 3; the eigenvector of the
+    smaller eigenvalue, along the visual edge), the larger eigenvalue ``mu1`` (N,) and the coherence
+    ``(mu1 - mu2) / (mu1 + mu2)`` (N,).  ``J``, ``q0``, ``q1`` as for :func:`reduce_to_tangent`."""
+    mu1, mu2, c, s = eigen_2x2(*reduce_to_tangent(J, q0, q1))
+    return np.ascontiguousarray((q1 * c - q0 * s).T), mu1, (mu1 - mu2) / np.maximum(mu1 + mu2, 1e-12)
 
 
 def grid_gradients(band, dtype=np.float32):
