@@ -371,8 +371,9 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, log=prin
                 f"({counted:,} texels), speckle {100 * row['speckle']:.3f} %, dabs {row['dab_aspect'][0]:.2f} to "
                 f"{row['dab_aspect'][1]:.2f} long over wide (drawn: median {row['drawn_aspect'][1]:.2f}), "
                 f"{result.seconds:.0f} s")
-    if oil:
-        figures.update(_oil_paint(found, near_zero, size, log))
+        if oil:
+            figures[f"{subject_name}_oil_paint"] = _oil_paint(subject_name, subject, source, mask, texel, near_zero,
+                                                               size, log)
     return figures
 
 
@@ -392,31 +393,28 @@ def seam_step(image, rows):
     return float(np.abs(image[:, 0] - image[:, -1]).mean()), float(inside)
 
 
-def _oil_paint(found, near_zero, size, log):
+def _oil_paint(subject_name, subject, source, mask, texel, near_zero, size, log):
     """The Oil Paint preset against Blender's Kuwahara node (:func:`cp_stylize_dev.scene.kuwahara_node`) on
-    each subject's picture: the edge measure of both, at half the filter's size, and on the sphere the
-    step across its UV seam against the steps inside."""
+    a subject's picture, given the run that changes nothing (``source``), the texels measured and their
+    length: the edge measure of both, at half the filter's size, and on the sphere the step across its UV
+    seam against the steps inside."""
     from cp_stylize.presets import load_preset
 
     from .scene import kuwahara_node
 
     oil = load_preset("oil_paint")
-    figures = {}
-    for name, subject in found.items():
-        vertices, faces, uvs, image, wrap = subject
-        source = _run(subject, near_zero, size)
-        mask = _mask(name, source, size)
-        scale_px = 0.5 * oil.oil_size / _texel(subject, source)
-        ours = _run(subject, oil, size)
-        node = _run((vertices, faces, uvs, kuwahara_node(np.asarray(image, np.float32)), wrap), near_zero, size)
-        row = figures[f"{name}_oil_paint"] = {"edges": edge_survival(ours.image, source.image, scale_px, mask),
-                                              "node_edges": edge_survival(node.image, source.image, scale_px, mask),
-                                              "seconds": ours.seconds}
-        if name == "sphere":
-            rows = np.flatnonzero(mask[:, 0] & mask[:, -1])
-            row["seam"], row["node_seam"] = seam_step(ours.image, rows), seam_step(node.image, rows)
-        log(f"{name:8s} oil_paint       edges {row['edges']:.2f} (Blender's Kuwahara node {row['node_edges']:.2f}), "
-            + (f"across the UV seam {row['seam'][0]:.4f} against {row['seam'][1]:.4f} inside (the node "
-               f"{row['node_seam'][0]:.4f} against {row['node_seam'][1]:.4f}), " if "seam" in row else "")
-            + f"{ours.seconds:.0f} s")
-    return figures
+    vertices, faces, uvs, image, wrap = subject
+    scale_px = 0.5 * oil.oil_size / texel
+    ours = _run(subject, oil, size)
+    node = _run((vertices, faces, uvs, kuwahara_node(np.asarray(image, np.float32)), wrap), near_zero, size)
+    row = {"edges": edge_survival(ours.image, source.image, scale_px, mask),
+           "node_edges": edge_survival(node.image, source.image, scale_px, mask), "seconds": ours.seconds}
+    if subject_name == "sphere":
+        rows = np.flatnonzero(mask[:, 0] & mask[:, -1])
+        row["seam"], row["node_seam"] = seam_step(ours.image, rows), seam_step(node.image, rows)
+    log(f"{subject_name:8s} oil_paint       edges {row['edges']:.2f} (Blender's Kuwahara node "
+        f"{row['node_edges']:.2f}), "
+        + (f"across the UV seam {row['seam'][0]:.4f} against {row['seam'][1]:.4f} inside (the node "
+           f"{row['node_seam'][0]:.4f} against {row['node_seam'][1]:.4f}), " if "seam" in row else "")
+        + f"{ours.seconds:.0f} s")
+    return row

@@ -153,14 +153,13 @@ def kuwahara_node(pixels):
     s.view_settings.view_transform = "Standard"
     s.render.image_settings.file_format = "PNG"
     s.render.image_settings.color_depth = "8"          # a byte image: its pixels read back as sRGB values
-    with tempfile.TemporaryDirectory() as folder:
-        path = os.path.join(folder, "kuwahara.png")
-        s.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-        result = bpy.data.images.load(path, check_existing=False)
-        try:
-            filtered = images.image_to_array(result)[..., :3].astype(np.float32)
-        finally:
-            bpy.data.images.remove(result)
-    s.compositing_node_group = None
-    return filtered
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "kuwahara.png")
+            s.render.filepath = path
+            bpy.ops.render.render(write_still=True)
+            return read_image(path)[::-1].astype(np.float32)
+    finally:
+        s.compositing_node_group = None
+        bpy.data.node_groups.remove(group)
+        bpy.data.images.remove(source)
