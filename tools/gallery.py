@@ -51,14 +51,16 @@ FORM_PRESET = "van_gogh_form"
 CROP = 384
 
 
-def build(kind):
-    """A fresh scene with the subject wearing its photograph; returns the object and the render's size."""
+def build(kind, texture=None):
+    """A fresh scene with the subject wearing its photograph (or ``texture``, an image array, for the sphere,
+    the torus and the frame); returns the object and the render's size."""
     if kind == "suzanne":
         obj, _, _ = demo.build_scene()
         return obj, (SIZE, SIZE)
     scene.reset()
-    photo = "city" if kind == "city" else "forest"
-    material = scene.new_material("Gallery", images.array_to_image("gallery_photo", scene.photo_texture(photo)))
+    if texture is None:
+        texture = scene.photo_texture("city" if kind == "city" else "forest")
+    material = scene.new_material("Gallery", images.array_to_image("gallery_photo", texture))
     if kind == "sphere":
         bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
         obj = bpy.context.active_object

@@ -30,24 +30,12 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import bpy  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from cp_stylize.blender import images  # noqa: E402
 from cp_stylize_dev import figures, scene  # noqa: E402
+from tools.gallery import build, save_jpeg  # noqa: E402
 
 SIZE = 768
 IMAGE_SIZE = 2048
 PRESET = "oil_paint"
-
-
-def sphere(texture):
-    """A fresh scene with a UV sphere wearing ``texture`` (an image array)."""
-    scene.reset()
-    material = scene.new_material("Compare", images.array_to_image("compare_photo", texture))
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
-    obj = bpy.context.active_object
-    bpy.ops.object.shade_smooth()
-    obj.name = "Sphere"
-    obj.data.materials.append(material)
-    return obj
 
 
 def seam_direction(obj):
@@ -86,15 +74,15 @@ def run(out_dir, log=print):
         f"{time.perf_counter() - start:.1f} s")
     paths = []
     for side in ("seam", "pole"):
-        paths.append(view(sphere(filtered), side, os.path.join(out_dir, f"kuwahara_node_{side}.jpg")))
-        obj = sphere(photo)
+        node, _ = build("sphere", filtered)
+        paths.append(view(node, side, os.path.join(out_dir, f"kuwahara_node_{side}.jpg")))
+        obj, _ = build("sphere", photo)
         start = time.perf_counter()
         scene.stylize(obj, PRESET, None, IMAGE_SIZE)
         log(f"Oil Paint on the sphere: {time.perf_counter() - start:.1f} s")
         paths.append(view(obj, side, os.path.join(out_dir, f"kuwahara_surface_{side}.jpg")))
     labels = ["BLENDER NODE, SEAM", "ON THE SURFACE, SEAM", "BLENDER NODE, POLE", "ON THE SURFACE, POLE"]
     cells = [figures.panel(scene.read_image(p)[::2, ::2], label) for p, label in zip(paths, labels)]
-    from tools.gallery import save_jpeg
     path = save_jpeg(os.path.join(out_dir, "kuwahara_compare.jpg"), figures.grid(cells, columns=2))
     log(f"wrote {path}")
 
