@@ -109,7 +109,8 @@ def test_sharpness_is_the_papers_power():
     assert sharpness_power(0.0) == 1.0 and sharpness_power(0.5) == 8.0 and sharpness_power(1.0) == 15.0
 
 
-def _torus():
+@pytest.fixture(scope="module")
+def torus():
     return parametric_mesh(Torus(10.0, 4.0).point, 48, 24, periodic_u=True, periodic_v=True)
 
 
@@ -121,8 +122,8 @@ def _halves(size=64):
     return np.clip(img + noise, 0, 1)
 
 
-def test_stylize_with_oil_paint_flattens_the_texture_and_keeps_its_colours():
-    vertices, faces, uvs = _torus()
+def test_stylize_with_oil_paint_flattens_the_texture_and_keeps_its_colours(torus):
+    vertices, faces, uvs = torus
     colours = ColourInput.constant(len(faces), (0.0, 0.0, 0.0))
     colours.textures.append((_halves(), uvs, np.ones(len(faces), bool)))
     plain = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.03, image_size=128)
@@ -139,8 +140,8 @@ def test_stylize_with_oil_paint_flattens_the_texture_and_keeps_its_colours():
         np.testing.assert_allclose(b.image[part].mean(axis=0), colour, atol=0.08)
 
 
-def test_oil_paint_under_contours_keeps_the_contours_height_and_lines():
-    vertices, faces, uvs = _torus()
+def test_oil_paint_under_contours_keeps_the_contours_height_and_lines(torus):
+    vertices, faces, uvs = torus
     colours = ColourInput.constant(len(faces), (0.0, 0.0, 0.0))
     colours.textures.append((_halves(), uvs, np.ones(len(faces), bool)))
     settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.03, image_size=128, contours=1.0)
