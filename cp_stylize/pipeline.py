@@ -418,7 +418,7 @@ def _bake_out(mesh, band, result, atlas, settings, cache, inputs, paint, report)
     colours, sampled, painted = inputs
     layout = (cache.owner, digest(atlas.uvs, atlas.texels), atlas.size, settings.margin)
     detail = None
-    if settings.detail > 0 and settings.strokes <= 0:
+    if settings.detail > 0 and settings.strokes <= 0 and settings.oil_size <= 0:   # oil paint takes none of it
         # what the filter starts from: the sampled colours extended once, as every step extends
         detail = Detail(cache.get("extended", painted, lambda: read_only(band.extend(sampled))),
                         lambda face, bary: cache.get("texel_colours", (painted, layout),
