@@ -24,6 +24,7 @@ from scipy.spatial import cKDTree
 from .arrays import expand_runs, smooth_step
 from .oklab import from_oklab, to_oklab
 from .palette import kept_chroma, loaded
+from .raster import face_map
 from .sparse import map_parallel
 
 __all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
@@ -211,17 +212,9 @@ def _uv_axes(dabs, texels):
     of each centre's face, and their centres (n, 2) with texel centres at integers."""
     uv = texels.uvs[dabs.face] * texels.size - 0.5                   # (n, 3, 2)
     corners = texels.corners[dabs.face]
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
-    g11, g12, g22 = (np.einsum("ij,ij->i", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
-    det = g11 * g22 - g12 * g12
-    det = np.where(np.abs(det) > 1e-30, det, np.inf)
     sides = np.cross(dabs.normal, dabs.direction)
-    axes = []
-    for w in (dabs.direction * (0.5 * dabs.length)[:, None], sides * (0.5 * dabs.width + dabs.depth)[:, None]):
-        r1, r2 = np.einsum("ij,ij->i", w, e1), np.einsum("ij,ij->i", w, e2)
-        x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
-        axes.append(x[:, None] * d1 + y[:, None] * d2)
+    axes = [face_map(uv, corners, w) for w in (dabs.direction * (0.5 * dabs.length)[:, None],
+                                                 sides * (0.5 * dabs.width + dabs.depth)[:, None])]
     centre = np.einsum("nk,nkj->nj", dabs.bary, uv)
     return np.stack(axes, axis=1), centre
 

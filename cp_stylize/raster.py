@@ -18,7 +18,7 @@ import numpy as np
 from .arrays import expand_runs, split_counts
 from .sparse import map_parallel, workers
 
-__all__ = ["rasterise", "barycentric_2d", "closest_in_triangle_2d", "MIN_AREA"]
+__all__ = ["rasterise", "barycentric_2d", "closest_in_triangle_2d", "face_map", "MIN_AREA"]
 
 #: Texel centres rasterised at once.
 _TEXELS = 1 << 20
@@ -163,3 +163,17 @@ def closest_in_triangle_2d(q, a, b, c):
     bary = barycentric_2d(q, a, b, c)
     inside = np.all(bary >= 0, axis=1)
     return np.where(inside[:, None], q, nearest)
+
+
+def face_map(uv, corners, vectors):
+    """Vectors (n, 3) in the planes of triangles ``corners`` (n, 3, 3) as they map into the UV triangles
+    ``uv`` (n, 3, 2) by each face's linear map: (n, 2), in ``uv``'s units.  A face with no area maps
+    every vector to 0."""
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    g11, g12, g22 = (np.einsum("ij,ij->i", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    det = g11 * g22 - g12 * g12
+    det = np.where(np.abs(det) > 1e-30, det, np.inf)
+    r1, r2 = np.einsum("ij,ij->i", vectors, e1), np.einsum("ij,ij->i", vectors, e2)
+    x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
+    return x[:, None] * d1 + y[:, None] * d2
