@@ -52,6 +52,10 @@ SECONDS_OIL_PER_POINT = 1.4e-5
 SECONDS_OIL_PER_TEXEL = 5e-6
 BYTES_OIL_PER_POINT = 128
 BYTES_OIL_PER_TEXEL = 256
+#: Ink lines (:mod:`cp_stylize.lines`): seconds and bytes per texel of the atlas (a city photograph's
+#: 2048 x 2048 frame, every texel covered: 22 s on two cores).
+SECONDS_LINES_PER_TEXEL = 5.5e-6
+BYTES_LINES_PER_TEXEL = 400
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
@@ -94,6 +98,9 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     if settings.oil_size > 0:
         seconds += n_points * SECONDS_OIL_PER_POINT + BAKED_SHARE * texels * SECONDS_OIL_PER_TEXEL
         nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL
+    if settings.line_width > 0:
+        seconds += texels * SECONDS_LINES_PER_TEXEL
+        nbytes += texels * BYTES_LINES_PER_TEXEL
     nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL

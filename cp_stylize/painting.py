@@ -18,6 +18,7 @@ from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab
 from .canvas import Texels, paint
+from .lines import inked
 from .stroke_field import StrokeField
 from .strokes import place_dabs
 
@@ -107,8 +108,7 @@ class Painting:
 
     def _inked(self, colours, amount):
         """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ink, or darkened without one."""
-        target = 0.25 * colours if self.ink is None else self.ink
-        return colours + amount[:, None] * (target - colours)
+        return inked(colours, amount, self.ink)
 
 
 def _with_grain(painted, fine, strength):

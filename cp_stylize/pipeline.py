@@ -37,6 +37,7 @@ from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
 from .toon import Toon
+from .lines import Lines
 from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
 from .painting import painting
@@ -219,6 +220,8 @@ def input_colours(colours, settings, channels=3):
         found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
     if (settings.noise_on or settings.strokes > 0) and settings.palette:   # the noise and the strokes paint with it
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
+    if settings.line_width > 0:                                  # ink lines darken towards black
+        found.append(np.zeros((1, channels), np.float32))
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)
         found.append(np.zeros((1, channels), np.float32) if ink is None else
@@ -349,6 +352,9 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         clock.lap("oil")
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness))
+    if settings.line_width > 0:            # ink lines over the flat colours, under any strokes
+        paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,
+                                     source=picture_at))
     if settings.strokes > 0 or settings.contours > 0:
         paint = layered(paint, run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field,
                                             colours=colours, source=picture_at))

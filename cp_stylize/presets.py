@@ -41,6 +41,10 @@ the extension)::
     levels = 4            # 0: none
     softness = 0.3
 
+    [lines]               # optional: ink lines at the texels (cp_stylize.lines)
+    width = 0.006         # the lines' width (object 2 units across); 0: none
+    detail = 0.5          # 0: the strongest edges alone; 1: most of them
+
     [output]              # optional
     size = 1024           # the image's texels a side
     margin = 16           # texels around the islands that repeat their border colours
@@ -105,6 +109,7 @@ _FILE = {
     "strokes": _run_keys("strokes"),
     "oil": _run_keys("oil"),
     "toon": _run_keys("toon"),
+    "lines": _run_keys("lines"),
     "output": {"size": "image_size", "margin": "margin"},
 }
 
@@ -422,7 +427,7 @@ def preset_text(settings):
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
     lines += ["]", "", "[strokes]", *run("strokes")]
-    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon")]
+    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[lines]", *run("lines")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

@@ -76,6 +76,12 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     oil = estimate_run(100_000, ced.replace(oil_size=0.03))
     assert oil[0] > s1 + 1.0 and oil[1] > b1 + 100_000 * 100
     assert estimate_run(200_000, ced.replace(oil_size=0.03))[0] - oil[0] > per_points(ced)[0] + 1.0
+    # ink lines cost by the texel alone
+    lines = estimate_run(100_000, ced.replace(line_width=0.004, image_size=2048))
+    bare = estimate_run(100_000, ced.replace(image_size=2048))
+    assert lines[0] > bare[0] + 20 and lines[1] > bare[1] + 2048**2 * 300
+    assert estimate_run(200_000, ced.replace(line_width=0.004, image_size=2048))[0] - lines[0] == pytest.approx(
+        estimate_run(200_000, ced.replace(image_size=2048))[0] - bare[0])
     # the closest point search costs by the triangle, the atlas by the texel, in time and memory
     scan = estimate_run(100_000, ced, triangles=1_000_000)
     big = estimate_run(100_000, ced.replace(image_size=4096))

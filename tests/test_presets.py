@@ -95,7 +95,7 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\nT = -1.0', "T must lie in [1e-06, 0.1], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
                                 "'detail', 'contours', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', "
-                                "'oil', 'toon', 'output']"),
+                                "'oil', 'toon', 'lines', 'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',

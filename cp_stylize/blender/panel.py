@@ -145,7 +145,9 @@ class VIEW3D_PT_cp_stylize_toon(_Sidebar, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        _switched(_split(self.layout), context.scene.cp_stylize, "toon_levels", ["toon_softness"], text="Levels")
+        layout = _split(self.layout)
+        _switched(layout, context.scene.cp_stylize, "toon_levels", ["toon_softness"], text="Levels")
+        _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Line Width")
 
 
 class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
