@@ -323,7 +323,7 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
     return figures
 
 
-def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, log=print):
+def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, log=print):
     """The painterly presets' measures on the three subjects (see :func:`subjects`), and with ``oil`` the Oil
     Paint preset's against Blender's Kuwahara node; returns them as a dict.
 
@@ -374,7 +374,57 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, log=prin
         if oil:
             figures[f"{subject_name}_oil_paint"] = _oil_paint(subject_name, subject, source, mask, texel, near_zero,
                                                                size, log)
+        if toon:
+            figures[f"{subject_name}_toon"] = _toon(subject_name, subject, source, mask, size, log)
     return figures
+
+
+def lightness_levels(image, mask, levels, reach=0.02, iterations=30):
+    """The share of the texels ``mask`` of ``image`` whose OKLab lightness lies within ``reach`` of one of
+    ``levels`` values, those values placed by one-dimensional k-means (from evenly spread quantiles)."""
+    from cp_stylize.oklab import to_oklab
+
+    lightness = to_oklab(np.asarray(image)[mask][:, :3].astype(np.float64))[:, 0]
+    centres = np.quantile(lightness, (np.arange(levels) + 0.5) / levels)
+    for _ in range(iterations):
+        nearest = np.argmin(np.abs(lightness[:, None] - centres[None, :]), axis=1)
+        centres = np.array([np.median(lightness[nearest == k]) if np.any(nearest == k) else centres[k]
+                            for k in range(levels)])
+    return float(np.mean(np.min(np.abs(lightness[:, None] - centres[None, :]), axis=1) < reach))
+
+
+def outline_coverage(inked, source, mask, reach=2, share=0.02):
+    """The share of the source's strongest edges (its ``share`` of texels with the largest OKLab colour
+    gradient at a deviation of one texel) that have an inked texel within ``reach`` texels."""
+    inner = _inner(mask, 3)
+    edges = _colour_gradient(source, 1.0)
+    strong = inner & (edges >= np.quantile(edges[inner], 1.0 - share))
+    near = ndimage.binary_dilation(inked, iterations=reach)
+    return float(near[strong].mean())
+
+
+def _toon(subject_name, subject, source, mask, size, log):
+    """The Toon preset's measures on a subject, given the run that changes nothing (``source``): how many
+    of the texels away from its lines hold one of its levels of lightness, how many of the picture's
+    strongest edges have a line along them, and the edge measure at a texel and a half."""
+    from cp_stylize.presets import load_preset
+
+    from cp_stylize.oklab import to_oklab
+
+    toon = load_preset("toon")
+    ours = _run(subject, toon, size)
+    bare = _run(subject, toon.replace(line_width=0.0), size)
+    darker = to_oklab(bare.image[..., :3].astype(np.float64))[..., 0] - to_oklab(ours.image[..., :3].astype(np.float64))[..., 0]
+    inked = mask & (darker > 0.05)
+    row = {"levels": toon.toon_levels,
+           "on_levels": lightness_levels(bare.image, mask & ~ndimage.binary_dilation(darker > 0.01, iterations=1),
+                                         toon.toon_levels),
+           "outlines": outline_coverage(inked, source.image, mask),
+           "edges": edge_survival(ours.image, source.image, 1.5, mask), "seconds": ours.seconds}
+    log(f"{subject_name:8s} toon            {100 * row['on_levels']:.0f} % of texels on its {row['levels']} levels, "
+        f"outlines along {100 * row['outlines']:.0f} % of the strongest edges, edges {row['edges']:.2f}, "
+        f"{ours.seconds:.0f} s")
+    return row
 
 
 def _mask(subject_name, source, size):

@@ -8,7 +8,7 @@ from cp_stylize.oklab import from_oklab, to_oklab
 from cp_stylize.pipeline import ColourInput, stylize
 from cp_stylize.presets import StylizeSettings
 from cp_stylize.surfaces import Torus
-from cp_stylize.toon import Toon, quantise_lightness
+from cp_stylize.toon import Toon, band_middles, quantise_lightness
 
 
 def _ramp(n=2001, hue=(0.8, 0.5, 0.3)):
@@ -71,10 +71,32 @@ def test_a_toon_run_paints_the_surface_in_flat_bands():
     plain = stylize(vertices, faces, colours, settings.replace(toon_levels=0), uvs=uvs)
     covered = plain.image.sum(axis=2) > 0
     lightness = to_oklab(result.image[covered])[:, 0]
-    centres = (np.arange(3) + 0.5) / 3
+    spread = to_oklab(plain.image[covered])[:, 0]
+    # each band takes a third of the picture's texels, at its own lightness there
+    centres = band_middles(spread, 3)
     on = np.min(np.abs(lightness[:, None] - centres[None, :]), axis=1) < 0.02
     assert np.mean(on) > 0.8
     # without toon shading the same run's lightness spreads over the ramp
-    spread = to_oklab(plain.image[covered])[:, 0]
     assert np.mean(np.min(np.abs(spread[:, None] - centres[None, :]), axis=1) < 0.02) < 0.4
     assert result.height is None and Toon.columns is None
+
+
+def test_the_bands_lie_at_the_middles_asked_and_step_halfway_between():
+    colours = _ramp()
+    middles = np.array([0.2, 0.3, 0.6, 0.7])
+    lightness = to_oklab(quantise_lightness(colours, 4, 0.0, middles))[:, 0]
+    assert np.mean(np.min(np.abs(lightness[:, None] - middles[None, :]), axis=1) < 0.01) > 0.97
+    assert lightness.min() > 0.19 and lightness.max() < 0.71     # no black, no white: a dark picture's own shades
+    source = to_oklab(colours)[:, 0]
+    assert np.all(lightness[(source > 0.31) & (source < 0.43)] < 0.31)     # the step from 0.3 to 0.6 is at 0.45
+    assert np.all(lightness[(source > 0.47) & (source < 0.59)] > 0.59)
+
+
+def test_the_bands_lie_at_the_pictures_own_quantiles_and_each_holds_a_share_of_it():
+    lightness = np.random.default_rng(1).beta(2, 6, 100_000)        # a dark picture
+    middles = band_middles(lightness, 4)
+    assert np.allclose(middles, np.quantile(lightness, [0.125, 0.375, 0.625, 0.875]), atol=1e-9)
+    nearest = np.argmin(np.abs(lightness[:, None] - middles[None, :]), axis=1)
+    assert np.all(np.bincount(nearest, minlength=4) / len(lightness) > 0.1)
+    # a flat picture's bands stay apart
+    assert np.all(np.diff(band_middles(np.full(100, 0.5), 4)) >= 0.02 - 1e-12)

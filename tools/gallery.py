@@ -139,7 +139,7 @@ def crop(path, kind):
     return save_jpeg(path.replace(".jpg", "_crop.jpg"), pixels[r:r + CROP, c:c + CROP])
 
 
-def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", log=print):
+def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", relief=True, log=print):
     os.makedirs(out_dir, exist_ok=True)
     for kind in subjects:            # the photographs themselves, to compare against
         render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log)
@@ -157,15 +157,21 @@ def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", log=
         path = os.path.join(out_dir, f"torus_{FORM_PRESET}.jpg")
         render("torus", FORM_PRESET, path, log=log)
         crop(path, "torus")
+    if relief:
+        _relief(out_dir, log)
+    sheet = figures.grid([cell for row in rows for cell in row], columns=len(subjects))
+    path = save_jpeg(os.path.join(out_dir, "gallery.jpg"), sheet)
+    log(f"wrote {path}")
+    return path
+
+
+def _relief(out_dir, log):
+    """Suzanne in Sunflower Vase under a raking light, and its 100 % crop."""
     raking = os.path.join(out_dir, "relief_raking.jpg")
     # the raking light leaves much of the head in shadow, lit only by the world: more samples, or its path
     # tracing noise reads as a grain in the paint
     render("suzanne", "sunflower_vase", raking, raking=True, samples=RAKING_SAMPLES, log=log)
     crop(raking, "suzanne")
-    sheet = figures.grid([cell for row in rows for cell in row], columns=len(subjects))
-    path = save_jpeg(os.path.join(out_dir, "gallery.jpg"), sheet)
-    log(f"wrote {path}")
-    return path
 
 
 def main(argv=None):
@@ -175,9 +181,10 @@ def main(argv=None):
     parser.add_argument("--subjects", nargs="+", default=list(SUBJECTS))
     parser.add_argument("--quality", default="STANDARD", choices=["PREVIEW", "STANDARD", "HIGH", "PRESET"],
                         help="the grid (default: STANDARD); PRESET: each preset's own")
+    parser.add_argument("--no-relief", action="store_true", help="leave out the render under a raking light")
     args = parser.parse_args(argv)
     run(args.out, presets=args.presets, subjects=args.subjects,
-        quality=None if args.quality == "PRESET" else args.quality)
+        quality=None if args.quality == "PRESET" else args.quality, relief=not args.no_relief)
 
 
 if __name__ == "__main__":
