@@ -53,14 +53,18 @@ ALONG_STEPS = 6
 #: Ink begins where the response reaches this share of its 99th percentile, at Detail 0 and at Detail 1,
 #: and is full at twice that.
 START_LEAST, START_MOST = 0.5, 0.08
+#: Pieces of ink (over SPECK_INK) smaller than this many texels of a 1024 x 1024 atlas are dropped: a line is
+#: a line, not a comma of noise.
+SPECK = 16
+SPECK_INK = 0.3
 #: The smallest 99th percentile taken (OKLab lightness): a flat picture draws no lines.
 FLOOR = 0.004
 #: The edges' direction: the picture's gradient after a Gaussian of this many texels, its structure
 #: tensor smoothed over this many centre deviations (at least 1.5 texels).
 PRESMOOTH = 1.0
 STRUCTURE = 2.0
-#: Lines are inked in their colour made this dark (a share of its sRGB values) when no ink is given.
-DARKEN = 0.2
+#: Lines are inked in this colour (sRGB) when none is given: black, as a pen draws.
+INK = (0.02, 0.02, 0.02)
 
 
 def inked(colours, amount, ink=None, darken=0.25):
@@ -123,8 +127,8 @@ class Lines:
 
     ``mesh``, ``atlas``: the surface and the atlas baked; ``width``: the lines' width (object normalised
     to a diameter of 2); ``detail`` in [0, 1]: from the strongest edges alone to most of them;
-    ``strength`` in [0, 1]: the ink's opacity; ``ink``: its sRGB colour (None: the colour under it
-    darkened); ``source(faces, barys)``: the picture's colours at points of the mesh (default: the
+    ``strength`` in [0, 1]: the ink's opacity; ``ink``: its sRGB colour (None: :data:`INK`,
+    black); ``source(faces, barys)``: the picture's colours at points of the mesh (default: the
     colours the bake-out has at its texels).  Reads no band columns and leaves no height.
     """
 
@@ -152,16 +156,35 @@ class Lines:
         covered = len(atlas.texels)
         scale = max(float(np.quantile(np.maximum(-response[:covered], 0.0), 0.99)) if covered else 0.0, FLOOR)
         start = START_LEAST + (START_MOST - START_LEAST) * self.detail
-        return np.clip((-response / scale - start) / start, 0.0, 1.0)
+        return _without_specks(np.clip((-response / scale - start) / start, 0.0, 1.0), flat, size)
 
     def __call__(self, texels, colours, read, progress=None):
         colours = np.asarray(colours)
         out = colours.copy()
         amount = self.strength * self.amount(texels, colours)
-        out[:, :3] = inked(colours[:, :3].astype(np.float64), amount, self.ink, DARKEN)
+        out[:, :3] = inked(colours[:, :3].astype(np.float64), amount, INK if self.ink is None else self.ink)
         if progress is not None:
             progress(1.0)
         return out, None
+
+
+def _without_specks(ink, flat, size):
+    """``ink`` (M,) at the texels ``flat`` (M,) without the specks and dashes: its connected pieces (over
+    :data:`SPECK_INK`, neighbours across corners too) smaller than :data:`SPECK` texels of a 1024 x 1024
+    atlas (four times as many at 2048) are dropped."""
+    from scipy import ndimage
+
+    image = np.zeros(size * size)
+    image[flat] = ink
+    labels, count = ndimage.label((image > SPECK_INK).reshape(size, size), structure=np.ones((3, 3)))
+    if not count:
+        return ink
+    sizes = np.bincount(labels.ravel())
+    small = sizes < SPECK * (size / 1024.0) ** 2
+    small[0] = False
+    # a speck's faint rim goes with it: the pieces grown by a texel
+    gone = ndimage.binary_dilation(small[labels], structure=np.ones((3, 3))).ravel()[flat]
+    return np.where(gone, 0.0, ink)
 
 
 def _filled(values, flat, size, known=None):

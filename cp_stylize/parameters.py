@@ -144,13 +144,18 @@ RUN = {p.name: p for p in (
     Parameter("toon_softness", "Softness", "Toon shading: how gently one band of lightness steps to the next (0: a "
                                            "hard step; 1: a gentle ramp)", 0.0, 1.0, 0.3, precision=2,
               file=("toon", "softness")),
+    Parameter("toon_outlines", "Outlines", "Toon shading: ink along the borders between the bands, on their dark "
+                                           "side, this strong (0: none); each border's ink follows how far its "
+                                           "two bands lie apart", 0.0, 1.0, 0.0, precision=2,
+              file=("toon", "outlines")),
     Parameter("line_width", "Lines", "Ink lines along the picture's edges and thin dark lines, this wide (object "
                                      "normalised to a diameter of 2; at least a texel and a half), by Kang, Lee and "
                                      "Chui's flow-based difference of Gaussians on the surface, as sharp as the "
                                      "texels (0: none)",
               0.0, 0.05, 0.0, "length", precision=4, step=0.1, file=("lines", "width")),
-    Parameter("line_detail", "Detail", "Ink lines: how many of the picture's edges get a line (0: the strongest "
-                                       "alone; 1: most of them, fainter ones too)", 0.0, 1.0, 0.5, precision=2,
+    Parameter("line_detail", "Line Detail", "Ink lines: how many of the picture's edges get a line (0: the "
+                                            "strongest alone; 1: most of them, fainter ones too)", 0.0, 1.0, 0.5,
+              precision=2,
               file=("lines", "detail")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,

@@ -351,7 +351,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     if paint is not None:
         clock.lap("oil")
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
-        paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness))
+        paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness, atlas.size, settings.toon_outlines))
     if settings.line_width > 0:            # ink lines over the flat colours, under any strokes
         paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,
                                      source=picture_at))

@@ -208,6 +208,7 @@ class StylizeSettings:
     oil_eccentricity: float = RUN["oil_eccentricity"].default
     toon_levels: int = RUN["toon_levels"].default   # toon bands of lightness (cp_stylize.toon); 0: none
     toon_softness: float = RUN["toon_softness"].default
+    toon_outlines: float = RUN["toon_outlines"].default
     line_width: float = RUN["line_width"].default   # ink lines (cp_stylize.lines); 0: none
     line_detail: float = RUN["line_detail"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]

@@ -393,6 +393,17 @@ def lightness_levels(image, mask, levels, reach=0.02, iterations=30):
     return float(np.mean(np.min(np.abs(lightness[:, None] - centres[None, :]), axis=1) < reach))
 
 
+def away(image, darker, step=0.02):
+    """The texels (H, W) of a toon ``image`` on its lines (where ``darker``, the lightness the lines took
+    away, is over 0.01, and their neighbours) or at its bands' steps (their 3 x 3 neighbours' OKLab
+    lightness spans more than ``step``): those the levels measure leaves out."""
+    from cp_stylize.oklab import to_oklab
+
+    lightness = to_oklab(np.asarray(image)[..., :3].astype(np.float64))[..., 0]
+    steps = ndimage.maximum_filter(lightness, 3) - ndimage.minimum_filter(lightness, 3) > step
+    return steps | ndimage.binary_dilation(darker > 0.01, iterations=1)
+
+
 def outline_coverage(inked, source, mask, reach=2, share=0.02):
     """The share of the source's strongest edges (its ``share`` of texels with the largest OKLab colour
     gradient at a deviation of one texel) that have an inked texel within ``reach`` texels."""
@@ -405,7 +416,8 @@ def outline_coverage(inked, source, mask, reach=2, share=0.02):
 
 def _toon(subject_name, subject, source, mask, size, log):
     """The Toon preset's measures on a subject, given the run that changes nothing (``source``): how many
-    of the texels away from its lines hold one of its levels of lightness, how many of the picture's
+    of the texels away from its lines and its bands' steps (:func:`away`) hold one of its levels of
+    lightness, how many of the picture's
     strongest edges have a line along them, and the edge measure at a texel and a half."""
     from cp_stylize.presets import load_preset
 
@@ -413,12 +425,11 @@ def _toon(subject_name, subject, source, mask, size, log):
 
     toon = load_preset("toon")
     ours = _run(subject, toon, size)
-    bare = _run(subject, toon.replace(line_width=0.0), size)
+    bare = _run(subject, toon.replace(line_width=0.0, toon_outlines=0.0), size)
     darker = to_oklab(bare.image[..., :3].astype(np.float64))[..., 0] - to_oklab(ours.image[..., :3].astype(np.float64))[..., 0]
     inked = mask & (darker > 0.05)
     row = {"levels": toon.toon_levels,
-           "on_levels": lightness_levels(bare.image, mask & ~ndimage.binary_dilation(darker > 0.01, iterations=1),
-                                         toon.toon_levels),
+           "on_levels": lightness_levels(bare.image, mask & ~away(bare.image, darker), toon.toon_levels),
            "outlines": outline_coverage(inked, source.image, mask),
            "edges": edge_survival(ours.image, source.image, 1.5, mask), "seconds": ours.seconds}
     log(f"{subject_name:8s} toon            {100 * row['on_levels']:.0f} % of texels on its {row['levels']} levels, "

@@ -113,3 +113,17 @@ def test_lines_are_checked_as_settings():
         StylizeSettings(mode="gaussian", line_width=-0.01)
     with pytest.raises(ValueError, match="line_detail"):
         StylizeSettings(mode="gaussian", line_detail=1.5)
+
+
+def test_specks_of_ink_are_dropped_and_lines_kept():
+    from cp_stylize.lines import SPECK, _without_specks
+
+    size = 1024
+    ink = np.zeros((size, size))
+    ink[100:102, 100:300] = 1.0                            # a line
+    ink[500:503, 500:503] = 1.0                            # a speck of 9 texels
+    ink[499, 499:504] = 0.2                                # and its faint rim
+    out = _without_specks(ink.ravel(), np.arange(size * size), size).reshape(size, size)
+    assert SPECK > 9
+    assert np.array_equal(out[90:110, 90:310], ink[90:110, 90:310])
+    assert out[490:510, 490:510].max() == 0.0

@@ -8,7 +8,7 @@ from cp_stylize.oklab import from_oklab, to_oklab
 from cp_stylize.pipeline import ColourInput, stylize
 from cp_stylize.presets import StylizeSettings
 from cp_stylize.surfaces import Torus
-from cp_stylize.toon import Toon, band_middles, quantise_lightness
+from cp_stylize.toon import Toon, band_middles, band_position, band_values, quantise_lightness
 
 
 def _ramp(n=2001, hue=(0.8, 0.5, 0.3)):
@@ -72,8 +72,8 @@ def test_a_toon_run_paints_the_surface_in_flat_bands():
     covered = plain.image.sum(axis=2) > 0
     lightness = to_oklab(result.image[covered])[:, 0]
     spread = to_oklab(plain.image[covered])[:, 0]
-    # each band takes a third of the picture's texels, at its own lightness there
-    centres = band_middles(spread, 3)
+    # the bands centred in thirds of the picture's texels, each at the mean lightness of its texels
+    centres = band_values(spread, np.rint(band_position(spread, band_middles(spread, 3))).astype(np.int64), 3)
     on = np.min(np.abs(lightness[:, None] - centres[None, :]), axis=1) < 0.02
     assert np.mean(on) > 0.8
     # without toon shading the same run's lightness spreads over the ramp
@@ -100,3 +100,54 @@ def test_the_bands_lie_at_the_pictures_own_quantiles_and_each_holds_a_share_of_i
     assert np.all(np.bincount(nearest, minlength=4) / len(lightness) > 0.1)
     # a flat picture's bands stay apart
     assert np.all(np.diff(band_middles(np.full(100, 0.5), 4)) >= 0.02 - 1e-12)
+
+
+def test_each_band_takes_the_mean_lightness_of_its_texels_so_the_picture_keeps_its_values():
+    lightness = np.random.default_rng(2).beta(2, 6, 100_000)        # a dark picture
+    band = np.rint(band_position(lightness, band_middles(lightness, 4))).astype(np.int64)
+    values = band_values(lightness, band, 4)
+    assert np.allclose(values, [lightness[band == k].mean() for k in range(4)])
+    assert values[band].mean() == pytest.approx(lightness.mean())  # the mean is kept
+    # a band no texel is in lies between its neighbours, and the values keep rising
+    assert np.all(np.diff(band_values(np.array([0.2, 0.2, 0.8]), np.array([0, 0, 3]), 4)) >= 0.02 - 1e-12)
+
+
+def test_specks_go_to_the_band_around_them_and_a_step_is_anti_aliased_over_a_texel():
+    from cp_stylize.toon import ISLAND
+
+    size = 1024                                            # ISLAND counts texels of a 1024 x 1024 atlas
+    grey = np.repeat(np.linspace(0.3, 0.7, size)[None, :], size, axis=0)     # a shallow ramp across
+    for r, c in ((10, 10), (200, 150), (400, 50)):         # specks of light in the dark
+        grey[r:r + 2, c:c + 2] = 0.75
+    colours = from_oklab(np.column_stack([grey.ravel(), np.zeros((size * size, 2))]))
+    flat = np.arange(size * size)
+    out, height = Toon(2, 0.0, size)((flat, None, None, None), colours, None)
+    lightness = to_oklab(out)[:, 0].reshape(size, size)
+    low, high = lightness.min(), lightness.max()
+    assert height is None and ISLAND > 4
+    assert np.ptp(lightness[:, :500]) < 1e-6               # the specks are gone: the dark side is one band
+    # the step is crisp and anti-aliased: one to three columns between the bands' values, not zero, not many
+    between = (lightness[0] > low + 0.005) & (lightness[0] < high - 0.005)
+    assert 1 <= between.sum() <= 3
+    assert np.all(np.diff(lightness[0]) >= -1e-9)
+    # without the atlas's size, no clean-up: the specks stay
+    bare = to_oklab(Toon(2, 0.0)((flat, None, None, None), colours, None)[0])[:, 0].reshape(size, size)
+    assert bare[10, 10] > bare[20, 20] + 0.1
+
+
+def test_outlines_ink_the_dark_side_of_each_step_a_texel_wide_however_shallow_the_gradient():
+    size = 1024
+    grey = np.repeat(np.linspace(0.2, 0.8, size)[None, :], size, axis=0)      # a shallow ramp across
+    grey[:, 700:] = 0.95                                   # and a sharp step
+    colours = from_oklab(np.column_stack([grey.ravel(), np.zeros((size * size, 2))]))
+    flat = np.arange(size * size)
+    plain = to_oklab(Toon(3, 0.0, size)((flat, None, None, None), colours, None)[0])[:, 0].reshape(size, size)[0]
+    inked = to_oklab(Toon(3, 0.0, size, outlines=1.0)((flat, None, None, None), colours, None)[0])[:, 0]
+    darker = plain - inked.reshape(size, size)[0]
+    lines = np.flatnonzero(darker > 0.05)
+    # one line a step, one to two texels wide, on the dark side (before the lighter band begins)
+    pieces = np.split(lines, np.flatnonzero(np.diff(lines) > 1) + 1)
+    assert len(pieces) == 2 and all(1 <= len(p) <= 2 for p in pieces)
+    for p in pieces:
+        assert plain[p.max() + 1] > plain[p.min() - 1] + 0.05
+    assert np.abs(darker[:pieces[0].min() - 2]).max() < 1e-9               # flat: no ink

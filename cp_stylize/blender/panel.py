@@ -146,7 +146,7 @@ class VIEW3D_PT_cp_stylize_toon(_Sidebar, bpy.types.Panel):
 
     def draw(self, context):
         layout = _split(self.layout)
-        _switched(layout, context.scene.cp_stylize, "toon_levels", ["toon_softness"], text="Levels")
+        _switched(layout, context.scene.cp_stylize, "toon_levels", ["toon_softness", "toon_outlines"], text="Levels")
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Line Width")
 
 

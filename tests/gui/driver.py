@@ -191,6 +191,19 @@ def scenario_panel():
     area.tag_redraw()
     yield 1.5
     screenshot("panel_oil_toon", sidebar)
+    # the Toon preset, with the Paint and Oil Paint sub-panels out of the way so that the Toon sub-panel's
+    # bands, outlines and lines show in the window
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="toon")
+    aside = [panels.VIEW3D_PT_cp_stylize_paint, panels.VIEW3D_PT_cp_stylize_oil]
+    for cls in aside:
+        bpy.utils.unregister_class(cls)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_toon", sidebar)
+    facts["toon"] = {"toon_levels": settings.toon_levels, "toon_outlines": settings.toon_outlines,
+                     "line_width": settings.line_width}
+    for cls in aside:
+        bpy.utils.register_class(cls)
 
 
 def scenario_undo():

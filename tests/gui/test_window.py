@@ -85,6 +85,8 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     for direction in facts["directions"]:
         assert os.path.getsize(facts["screenshots"][f"panel_direction_{direction}_crop"]) > 10_000, direction
     assert os.path.getsize(facts["screenshots"]["panel_oil_toon_crop"]) > 10_000
+    assert os.path.getsize(facts["screenshots"]["panel_toon_crop"]) > 10_000
+    assert facts["toon"] == {"toon_levels": 4, "toon_outlines": 1.0, "line_width": pytest.approx(0.004)}
 
 
 def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(screenshots, extension_zip, tmp_path):
