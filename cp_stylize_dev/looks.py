@@ -324,8 +324,9 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
 
 
 def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, log=print):
-    """The painterly presets' measures on the three subjects (see :func:`subjects`), and with ``oil`` the Oil
-    Paint preset's against Blender's Kuwahara node; returns them as a dict.
+    """The painterly presets' measures on the three subjects (see :func:`subjects`), with ``oil`` the Oil
+    Paint preset's against Blender's Kuwahara node, and with ``toon`` the Toon preset's (:func:`_toon`);
+    returns them as a dict.
 
     Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
     subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
