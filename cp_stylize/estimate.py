@@ -56,6 +56,9 @@ BYTES_OIL_PER_TEXEL = 256
 #: 2048 x 2048 frame, every texel covered: 22 s on two cores).
 SECONDS_LINES_PER_TEXEL = 5.5e-6
 BYTES_LINES_PER_TEXEL = 400
+#: Toon bands (:mod:`cp_stylize.toon`) with the atlas's size (their islands and steps): seconds per texel of
+#: the atlas.
+SECONDS_TOON_PER_TEXEL = 1.5e-6
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
@@ -98,6 +101,8 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     if settings.oil_size > 0:
         seconds += n_points * SECONDS_OIL_PER_POINT + BAKED_SHARE * texels * SECONDS_OIL_PER_TEXEL
         nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL
+    if settings.toon_levels:
+        seconds += texels * SECONDS_TOON_PER_TEXEL
     if settings.line_width > 0:
         seconds += texels * SECONDS_LINES_PER_TEXEL
         nbytes += texels * BYTES_LINES_PER_TEXEL

@@ -76,7 +76,9 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     oil = estimate_run(100_000, ced.replace(oil_size=0.03))
     assert oil[0] > s1 + 1.0 and oil[1] > b1 + 100_000 * 100
     assert estimate_run(200_000, ced.replace(oil_size=0.03))[0] - oil[0] > per_points(ced)[0] + 1.0
-    # ink lines cost by the texel alone
+    # toon bands and ink lines cost by the texel alone
+    toon = estimate_run(100_000, ced.replace(toon_levels=4, image_size=2048))
+    assert toon[0] > estimate_run(100_000, ced.replace(image_size=2048))[0] + 5
     lines = estimate_run(100_000, ced.replace(line_width=0.004, image_size=2048))
     bare = estimate_run(100_000, ced.replace(image_size=2048))
     assert lines[0] > bare[0] + 20 and lines[1] > bare[1] + 2048**2 * 300
