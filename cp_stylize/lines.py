@@ -11,10 +11,10 @@ sharp as the output's texels, and about ``2 s`` wide.
 
 On the surface:
 
-- the edges' direction is the tangent structure tensor of the band's colours
-  (:func:`cp_stylize.structure.along_structure`), its six components
-  interpolated at each texel's surface point (``columns``) and reduced to the
-  texel's own tangent plane, so it has no sign to flip;
+- the edges' direction is the structure tensor of the picture's gradient at
+  the texels (Kang, Lee and Chui's edge tangent flow), its eigenvectors taken
+  in the surface's metric (each texel's face's linear map), so a line is as
+  wide on the surface whichever way its chart is stretched;
 - the samples across and along are taken in the atlas, each texel's steps on
   the surface mapped into texels by its face's linear map (one texel's length
   on the surface, whatever the chart's scale); a margin texel steps by the
@@ -74,15 +74,18 @@ def inked(colours, amount, ink=None, darken=0.25):
     return colours + amount[:, None] * (target - colours)
 
 
-def flow_dog(image, position, across, along, sigma, steps=(ACROSS_STEPS, ALONG_STEPS)):
+def flow_dog(image, position, across, along, sigma, steps=(ACROSS_STEPS, ALONG_STEPS), nearest_fill=None):
     """The flow-based difference of Gaussians of ``image`` (size, size) at texels ``position`` (M, 2; row,
     column): the response (M,), negative on the dark side of an edge and on a thin dark line.
 
     ``across`` and ``along`` (size, size, 2): at each texel, one texel's length on the surface across and
     along the edges, in texels (row, column); ``sigma`` (M,): each texel's centre deviation in those
     lengths.  The samples are read bilinearly; the curve along the flow follows the direction of the
-    texel it reaches at each step, kept pointing the way it came."""
+    texel it reaches at each step, kept pointing the way it came.  ``nearest_fill``:
+    :func:`cp_stylize.raster.nearest_texels` of ``position``, if made before."""
     from scipy import ndimage
+
+    from .raster import nearest_filled
 
     size = image.shape[0]
     n_across, n_along = steps
@@ -103,9 +106,7 @@ def flow_dog(image, position, across, along, sigma, steps=(ACROSS_STEPS, ALONG_S
     # the difference of Gaussians across the edges, once at each texel ...
     step = across.reshape(-1, 2)[nearest(centre)] * sigma[:, None]
     across_edges = sum(k * read(image, centre + o * step) for o, k in zip(offsets, kernel))
-    known = np.zeros(size * size, dtype=bool)
-    known[nearest(centre)] = True
-    field = _filled(across_edges, nearest(centre), size, known)
+    field = nearest_filled(across_edges, nearest(centre), size, nearest_fill)
     # ... averaged along the flow, read where the curve through each texel passes
     weights = np.exp(-0.5 * (np.arange(n_along + 1) / ALONG) ** 2)
     total = weights[0] * across_edges
@@ -142,17 +143,19 @@ class Lines:
     def amount(self, texels, colours):
         """How much ink (M,) in [0, 1] each texel takes."""
         from .baking import texel_lengths
+        from .raster import nearest_filled, nearest_texels
 
         flat, points, faces, barys = texels
         atlas, size = self.atlas, self.atlas.size
         picture = colours if self.source is None else self.source(faces, barys)
-        image = _filled(to_oklab(np.asarray(picture, dtype=np.float64)[:, :3])[:, 0], flat, size)
+        fill = nearest_texels(flat, size)
+        image = nearest_filled(to_oklab(np.asarray(picture, dtype=np.float64)[:, :3])[:, 0], flat, size, fill)
         lengths = texel_lengths(self.mesh, atlas, faces)
         sigma = np.maximum(0.5 * self.width / lengths, MIN_SIGMA)
         metric = _metric(self.mesh, atlas, flat)
         across, along = _flow(image, flat, metric, lengths, max(1.5, STRUCTURE * float(np.median(sigma))))
         position = np.column_stack(np.divmod(flat, size)).astype(np.float64)
-        response = flow_dog(image, position, across, along, sigma)
+        response = flow_dog(image, position, across, along, sigma, nearest_fill=fill)
         covered = len(atlas.texels)
         scale = max(float(np.quantile(np.maximum(-response[:covered], 0.0), 0.99)) if covered else 0.0, FLOOR)
         start = START_LEAST + (START_MOST - START_LEAST) * self.detail
@@ -187,32 +190,16 @@ def _without_specks(ink, flat, size):
     return np.where(gone, 0.0, ink)
 
 
-def _filled(values, flat, size, known=None):
-    """An image (size, size) of ``values`` (M,) at the texels ``flat`` (M,), each other texel taking its
-    nearest one's value: no edge where the texels end.  ``known``: the texels ``flat`` as a boolean
-    image (size * size,), if made before."""
-    from scipy import ndimage
-
-    image = np.zeros(size * size)
-    image[flat] = values
-    if known is None:
-        known = np.zeros(size * size, dtype=bool)
-        known[flat] = True
-    _, fill = ndimage.distance_transform_edt(~known.reshape(size, size), return_indices=True)
-    return image.reshape(size, size)[fill[0], fill[1]]
-
-
 def _metric(mesh, atlas, flat):
     """At the texels ``flat`` (M,): the surface's metric (M, 2, 2) in texel steps (column, row), by the
     linear map of each texel's face; a margin texel takes that of the chart it borders, whose colours it
     continues (see :mod:`cp_stylize.baking`)."""
-    from scipy import ndimage
+    from .raster import nearest_texels
 
     size = atlas.size
     owner = np.full(size * size, -1, dtype=np.int64)
     owner[atlas.texels] = atlas.face
-    _, nearest = ndimage.distance_transform_edt(~atlas.coverage, return_indices=True)
-    faces = owner[(nearest[0] * size + nearest[1]).ravel()[flat]]
+    faces = owner[nearest_texels(atlas.texels, size)[flat]]
     uv = atlas.uvs[faces] * size
     corners = mesh.vertices[mesh.input_faces][faces]
     edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)   # (M, 3, 2)

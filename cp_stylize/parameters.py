@@ -144,9 +144,9 @@ RUN = {p.name: p for p in (
     Parameter("toon_softness", "Softness", "Toon shading: how gently one band of lightness steps to the next (0: a "
                                            "hard step; 1: a gentle ramp)", 0.0, 1.0, 0.3, precision=2,
               file=("toon", "softness")),
-    Parameter("toon_outlines", "Outlines", "Toon shading: ink along the borders between the bands, on their dark "
-                                           "side, this strong (0: none); each border's ink follows how far its "
-                                           "two bands lie apart", 0.0, 1.0, 0.0, precision=2,
+    Parameter("toon_outlines", "Outlines", "Toon shading: black lines a texel wide along the borders between the "
+                                           "bands, on their dark side, this strong (0: none)", 0.0, 1.0, 0.0,
+              precision=2,
               file=("toon", "outlines")),
     Parameter("line_width", "Lines", "Ink lines along the picture's edges and thin dark lines, this wide (object "
                                      "normalised to a diameter of 2; at least a texel and a half), by Kang, Lee and "

@@ -18,7 +18,8 @@ import numpy as np
 from .arrays import expand_runs, split_counts
 from .sparse import map_parallel, workers
 
-__all__ = ["rasterise", "barycentric_2d", "closest_in_triangle_2d", "face_map", "MIN_AREA"]
+__all__ = ["rasterise", "barycentric_2d", "closest_in_triangle_2d", "face_map", "nearest_texels", "nearest_filled",
+           "MIN_AREA"]
 
 #: Texel centres rasterised at once.
 _TEXELS = 1 << 20
@@ -177,3 +178,25 @@ def face_map(uv, corners, vectors):
     r1, r2 = np.einsum("ij,ij->i", vectors, e1), np.einsum("ij,ij->i", vectors, e2)
     x, y = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
     return x[:, None] * d1 + y[:, None] * d2
+
+
+def nearest_texels(flat, size):
+    """For every texel of a ``size`` x ``size`` grid, the flat index (size * size,) of the nearest of the
+    texels ``flat`` (a Euclidean distance transform; each of ``flat`` is its own)."""
+    from scipy import ndimage
+
+    known = np.zeros(size * size, dtype=bool)
+    known[flat] = True
+    if known.all():
+        return np.arange(size * size)
+    _, nearest = ndimage.distance_transform_edt(~known.reshape(size, size), return_indices=True)
+    return (nearest[0] * size + nearest[1]).ravel()
+
+
+def nearest_filled(values, flat, size, nearest=None):
+    """An image (size, size) of ``values`` (M,) at the texels ``flat`` (M,), every other texel taking its
+    nearest one's value, so no edge shows where the texels end.  ``nearest``: :func:`nearest_texels` of
+    ``flat``, if made before."""
+    image = np.zeros(size * size, dtype=np.result_type(values, np.float64))
+    image[flat] = values
+    return image[nearest_texels(flat, size) if nearest is None else nearest].reshape(size, size)

@@ -12,9 +12,10 @@ a gentle S).  Hue and chroma stay the colour's own.
 :class:`Toon` applies it at each texel of the bake-out (``paint=`` of
 :func:`cp_stylize.baking.bake_to_atlas`), so the bands' edges are as sharp
 as the texels: the bands are centred in equal shares of the picture's
-lightness and given evenly spaced values (a dark picture keeps its shapes
-apart, in a cel's contrast), islands of a few texels go to the band around
-them, and each step is anti-aliased over a texel.  The smoothing before it
+lightness and each given the mean lightness of its texels (a dark picture
+keeps its shapes apart, and its values), islands of a few texels go to the
+band around them, each step is anti-aliased over a texel, and outlines may
+be inked on the dark side of each step.  The smoothing before it
 (EED keeps the picture's edges) decides how simple the shapes are, and ink
 lines laid over it (:mod:`cp_stylize.lines`) draw their outlines.
 """
@@ -189,12 +190,7 @@ def _change(position, flat, size):
     """How fast (M,) the band position (M,) at the texels ``flat`` (M,) changes, in bands a texel: from
     the atlas (one-sided at its border and where its texels end), whose margin texels continue the
     surface past each chart's edge."""
-    from scipy import ndimage
+    from .raster import nearest_filled
 
-    image = _image(position, flat, size, np.nan)
-    known = ~np.isnan(image)
-    if not known.all():
-        _, nearest = ndimage.distance_transform_edt(~known, return_indices=True)
-        image = image[nearest[0], nearest[1]]
-    rows, cols = np.gradient(image)
+    rows, cols = np.gradient(nearest_filled(position, flat, size))
     return np.maximum(np.hypot(rows, cols).ravel()[flat], 1e-9)
