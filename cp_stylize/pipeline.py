@@ -220,7 +220,7 @@ def input_colours(colours, settings, channels=3):
         found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
     if (settings.noise_on or settings.strokes > 0) and settings.palette:   # the noise and the strokes paint with it
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
-    if settings.line_width > 0:                                  # ink lines darken towards black
+    if settings.line_width > 0 or (settings.toon_levels and settings.toon_outlines > 0):   # ink goes to black
         found.append(np.zeros((1, channels), np.float32))
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)

@@ -32,7 +32,8 @@ __all__ = ["quantise_lightness", "band_middles", "Toon"]
 STEEPEST, GENTLEST = 1000.0, 1.0
 
 
-def quantise_lightness(colours, levels, softness=0.3, middles=None, values=None, shift=None, sharpest=None):
+def quantise_lightness(colours, levels, softness=0.3, middles=None, values=None, shift=None, sharpest=None,
+                       lab=None):
     """sRGB colours (..., 3) with their OKLab lightness in ``levels`` soft bands (see the module's notes).
 
     ``middles`` (levels,), rising: the bands' middles in the input's lightness (default: evenly spaced
@@ -40,7 +41,8 @@ def quantise_lightness(colours, levels, softness=0.3, middles=None, values=None,
     piecewise linear map that takes the middles to whole numbers, and steps halfway between two of
     them.  ``values`` (levels,): the lightness each band is given (default its middle).  ``shift``
     (...,): whole numbers of bands to move each colour by (see :class:`Toon`'s clean-up).  ``sharpest``
-    (...,): the steepest each colour's step may be (see :class:`Toon`'s anti-aliasing)."""
+    (...,): the steepest each colour's step may be (see :class:`Toon`'s anti-aliasing).  ``lab`` (..., 3):
+    the colours in OKLab, where the caller has them already."""
     colours = np.asarray(colours)
     levels = int(levels)
     if levels < 2:
@@ -51,7 +53,7 @@ def quantise_lightness(colours, levels, softness=0.3, middles=None, values=None,
     if middles.shape != (levels,) or np.any(np.diff(middles) <= 0):
         raise ValueError(f"middles must be {levels} rising lightnesses, got {middles!r}")
     values = middles if values is None else np.asarray(values, dtype=np.float64)
-    lab = to_oklab(colours)
+    lab = to_oklab(colours) if lab is None else np.array(lab, dtype=np.float64)
     u = band_position(lab[..., 0], middles)
     if shift is not None:
         u = np.clip(u + shift, 0.0, levels - 1.0)
@@ -127,7 +129,8 @@ class Toon:
 
     def __call__(self, texels, colours, read, progress=None):
         colours = np.asarray(colours)
-        lightness = to_oklab(colours[:, :3])[:, 0]
+        lab = to_oklab(colours[:, :3])
+        lightness = lab[:, 0]
         middles = band_middles(lightness, self.levels)
         position = band_position(lightness, middles)
         shift = sharpest = change = None
@@ -138,7 +141,8 @@ class Toon:
             position = np.clip(position + shift, 0.0, self.levels - 1.0)
         values = band_values(lightness, np.rint(position).astype(np.int64), self.levels)
         out = np.array(colours, dtype=np.float64 if colours.dtype.kind != "f" else colours.dtype)
-        out[:, :3] = quantise_lightness(colours[:, :3], self.levels, self.softness, middles, values, shift, sharpest)
+        out[:, :3] = quantise_lightness(colours[:, :3], self.levels, self.softness, middles, values, shift, sharpest,
+                                        lab)
         if change is not None and self.outlines > 0:
             ink = self.outlines * _borders(position, change, self.levels, self.size)
             out[:, :3] = out[:, :3] + ink[:, None] * (OUTLINE_INK - out[:, :3])

@@ -151,3 +151,17 @@ def test_outlines_ink_the_dark_side_of_each_step_a_texel_wide_however_shallow_th
     for p in pieces:
         assert plain[p.max() + 1] > plain[p.min() - 1] + 0.05
     assert np.abs(darker[:pieces[0].min() - 2]).max() < 1e-9               # flat: no ink
+
+
+def test_a_toon_runs_outlines_are_black_without_ink_lines():
+    # the run's colour hull takes black in for the outlines alone (Line Width 0), so they are not clamped
+    # to the picture's darkest grey
+    vertices, faces, uvs = parametric_mesh(Torus(10.0, 4.0).point, 48, 24, periodic_u=True, periodic_v=True)
+    image = np.repeat(np.linspace(0.35, 0.9, 64)[None, :, None].repeat(3, axis=2), 64, axis=0).astype(np.float32)
+    colours = ColourInput(textures=[(image, uvs, np.ones(len(faces), bool))])
+    settings = StylizeSettings(mode="gaussian", T=1e-5, spacing=0.03, image_size=512, toon_levels=3,
+                               toon_softness=0.0, toon_outlines=1.0, line_width=0.0)
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    covered = result.image.sum(axis=2) > 0
+    assert result.image[covered][:, :3].max(axis=1).min() < 0.15     # outlines in near-black ink, not 0.35
+    assert image.min() > 0.3
