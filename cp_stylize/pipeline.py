@@ -37,6 +37,7 @@ from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
 from .toon import Toon
+from .stars import find_stars, on_band, on_picture
 from .lines import Lines
 from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
@@ -63,6 +64,9 @@ CURVATURE_SMOOTHING = 4.0
 #: A band kept for re-runs keeps its bake-out's interpolation for atlases of up to this many baked
 #: texels (a 1024 x 1024 atlas; 64 weights a texel, about 512 MiB), so a re-run bakes out in one product.
 KEEP_BAKE_TEXELS = 1 << 20
+#: A star's core (:mod:`cp_stylize.stars`) is this share of the strokes' length in radius, and its halo's
+#: rings a stroke's width apart: the star is painted at the brush's scale.
+STAR_RADIUS = 0.3
 
 
 def normalisation(vertices, faces):
@@ -337,6 +341,12 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     report(0.1)
     painted = (cache.owner, band.h, band.stencil, colour_digest(colours))     # the key of the band's colours
     sampled, picture_at = _bake_in(mesh, band, colours, settings, cache, painted)
+    star_field = None
+    if settings.strokes > 0 and settings.stars > 0:      # the picture's bright spots painted as stars
+        stars = find_stars(mesh, band, sampled, settings.stars, STAR_RADIUS * settings.stroke_length,
+                           settings.stroke_width, settings.seed)
+        sampled, star_field = on_band(stars, mesh, band, sampled)
+        picture_at = on_picture(stars, mesh, picture_at)
     values = palette_colours(sampled, settings)
     clock.lap("bake_in")
     report(0.15)
@@ -356,6 +366,9 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,
                                      source=picture_at))
     if settings.strokes > 0 or settings.contours > 0:
+        if star_field is not None:              # strokes circle the stars
+            field = star_field if field is None else np.where(
+                (np.linalg.norm(star_field, axis=1) > np.linalg.norm(field, axis=1))[:, None], star_field, field)
         paint = layered(paint, run_painting(mesh, band, result, atlas, settings, sampled=sampled, field=field,
                                             colours=colours, source=picture_at))
         report(0.9)

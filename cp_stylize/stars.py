@@ -1,0 +1,220 @@
+"""Stars: the picture's sky painted with the stars of van Gogh's "The Starry Night" (1889).
+
+In the painting each star is a bright core ringed by halos of short strokes that
+circle it, pale yellow and blue-white by turns, in a sky of swirling blues.  Here
+stars go where the picture has a sky: a part that is light and calm (no
+buildings, branches or lettering there to hide), found on the surface itself,
+so a star crosses UV seams whole:
+
+- **found** on the band: the picture's OKLab lightness is smoothed over a star's
+  core (a Gaussian of deviation ``radius``,
+  :class:`~cp_stylize.smoothing.GridGaussian`) and over its halo (:data:`HALO`
+  radii).  A star may go where the halo's lightness is at least
+  :data:`SKY_LIGHT` (and among the picture's lightest :data:`SKY` share), where
+  the picture's spread about the core's smoothed lightness, over the halo, is
+  among its calmest :data:`CALM` share, where the core stands out from the
+  halo by at most :data:`MIN_CONTRAST` (no edge runs through it), and at least
+  :data:`BORDER` radii from the mesh's open border (a star's core is never
+  cut).  Those places are taken in a random order (``seed``), so the stars
+  scatter over the sky, at most ``count`` of them, each at least :data:`APART`
+  radii from the others;
+- **painted into the picture**, before the palette maps its colours, so the
+  palette gives a star its own colours: a :data:`CORE` colour over the core
+  (:data:`CORE_SHARE` of the radius) and around it, out to :data:`HALO` radii,
+  rings a stroke's width apart of :data:`RINGS` colours by turns, fading out
+  over the halo's outer :data:`FADE`.  Each star's radius is drawn between :data:`SIZES` times the
+  radius asked for: the stars differ in size as the painting's do;
+- **with a field** the strokes follow (``field=`` of
+  :func:`cp_stylize.painting.painting`): circles about each star's centre, so
+  strokes ring it.
+
+A point belongs to a star where it lies within the halo (straight-line distance) and its normal is
+within :data:`FACING` of the star's: the other side of a thin part, or a sheet that passes close, is
+left alone.  Lengths are those of the object normalised to a diameter of 2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .oklab import to_oklab
+
+__all__ = ["Stars", "find_stars", "on_band", "on_picture"]
+
+#: A star's halo reaches this many core radii from its centre.
+HALO = 2.6
+#: Stars keep at least this many core radii apart.
+APART = 4.0
+#: A star's core may be lighter or darker than its halo by at most this much (OKLab; smoothed).
+MIN_CONTRAST = 0.03
+#: Stars go where the halo's smoothed OKLab lightness is at least this ...
+SKY_LIGHT = 0.6
+#: ... and among this share of the picture's lightest (a quantile) ...
+SKY = 0.6
+#: ... and where the picture is among its calmest this share (its lightness's spread about its smoothed
+#: self, over the halo).
+CALM = 0.25
+#: A star's centre keeps this many radii from the mesh's open border: its core and first ring whole.
+BORDER = 1.6
+#: The largest and smallest stars' radii, as shares of the radius asked for.
+SIZES = (1.2, 0.75)
+#: The core's colour and the halo rings' colours, taken by turns (sRGB, in the picture: the palette
+#: mapping makes them the palette's own).
+CORE = (1.0, 0.94, 0.62)
+RINGS = ((1.0, 0.96, 0.78), (0.78, 0.87, 1.0))
+#: The core is this share of a star's radius; rings fill the rest of the halo.
+CORE_SHARE = 0.6
+#: A point belongs to a star's side of the surface where its normal is within this angle of the star's
+#: (its cosine).
+FACING = 0.5
+#: The halo's rings fade out over this share of the halo, towards its edge.
+FADE = 0.35
+#: Of the places a star may go, this many of the lightest are looked at.
+CANDIDATES = 20000
+
+
+class Stars:
+    """Stars at ``centres`` (k, 3) with unit ``normals`` (k, 3) and core ``radii`` (k,), their halos'
+    rings ``ring`` apart (see the module's notes)."""
+
+    def __init__(self, centres, normals, radii, ring):
+        self.centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
+        self.normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+        self.radii = np.broadcast_to(np.asarray(radii, dtype=np.float64), (len(self.centres),)).copy()
+        self.ring = float(ring)
+
+    def __len__(self):
+        return len(self.centres)
+
+    def _nearest(self, points, normals, reach):
+        """The star each of ``points`` (M, 3) belongs to within ``reach`` of its radii from its centre
+        (M,: -1 for none), and its distance from it (M,); ``normals(index)`` gives the unit normals
+        (m, 3) of the points ``index``, asked for those within reach alone."""
+        which = np.full(len(points), -1, dtype=np.int64)
+        distance = np.full(len(points), np.inf)
+        for k, centre in enumerate(self.centres):
+            d = np.linalg.norm(points - centre, axis=1)
+            closer = (d < reach * self.radii[k]) & (d < distance)
+            which[closer], distance[closer] = k, d[closer]
+        inside = np.flatnonzero(which >= 0)
+        if len(inside):
+            away = np.einsum("ij,ij->i", normals(inside), self.normals[which[inside]]) <= FACING
+            which[inside[away]], distance[inside[away]] = -1, np.inf
+        return which, distance
+
+    def paint(self, points, normals, colours):
+        """``colours`` (M, C, sRGB) of surface ``points`` (M, 3), with the stars painted over them (a copy);
+        ``normals(index)``: the unit normals (m, 3) of the points ``index``."""
+        out = np.array(colours, dtype=np.float32)
+        if not len(self):
+            return out
+        which, d = self._nearest(np.asarray(points, dtype=np.float64), normals, HALO)
+        inside = np.flatnonzero(which >= 0)
+        if not len(inside):
+            return out
+        d, r = d[inside], self.radii[which[inside]]
+        inner = CORE_SHARE * r
+        core = np.clip((1.2 * inner - d) / (0.2 * inner), 0.0, 1.0)     # the core, its edge soft
+        lane = np.floor(np.maximum(d - inner, 0.0) / self.ring).astype(np.int64) % len(RINGS)
+        fade = np.clip((HALO * r - d) / (FADE * (HALO - 1.0) * r), 0.0, 1.0)
+        ring = np.asarray(RINGS, dtype=np.float32)[lane]
+        colour = core[:, None] * np.float32(CORE) + (1.0 - core[:, None]) * ring
+        amount = np.maximum(core, fade)[:, None]
+        out[inside, :3] = out[inside, :3] + amount * (colour - out[inside, :3])
+        return out
+
+    def field(self, points, normals):
+        """The strokes' directions about the stars (M, 3) at surface ``points`` (M, 3) (``normals`` as for
+        :meth:`paint`): unit circles about each star's centre, in the tangent plane, over its halo
+        and a little beyond (their length falls to 0 from :data:`HALO` to 1.3 :data:`HALO` radii); 0
+        elsewhere."""
+        points = np.asarray(points, dtype=np.float64)
+        out = np.zeros((len(points), 3))
+        if not len(self):
+            return out
+        which, d = self._nearest(points, normals, 1.3 * HALO)
+        inside = np.flatnonzero((which >= 0) & (d > 1e-9))
+        if not len(inside):
+            return out
+        around = np.cross(normals(inside), points[inside] - self.centres[which[inside]])
+        around /= np.maximum(np.linalg.norm(around, axis=1, keepdims=True), 1e-12)
+        reach = HALO * self.radii[which[inside]]
+        trust = np.clip((1.3 * reach - d[inside]) / (0.3 * reach), 0.0, 1.0)
+        out[inside] = trust[:, None] * around
+        return out
+
+
+def face_normals(mesh, face):
+    """The unit normals (M, 3) of the input faces ``face`` (M,) of ``mesh``."""
+    corners = mesh.vertices[mesh.input_faces[face]]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+
+
+def on_picture(stars, mesh, picture_at):
+    """``picture_at(face, bary)`` (the picture's colours at points of the mesh) with ``stars`` painted in."""
+    if not len(stars):
+        return picture_at
+
+    def at(face, bary):
+        face, bary = np.asarray(face), np.asarray(bary, dtype=np.float64)
+        points = np.einsum("nk,nkj->nj", bary, mesh.vertices[mesh.input_faces[face]])
+        return stars.paint(points, lambda index: face_normals(mesh, face[index]), picture_at(face, bary))
+    return at
+
+
+def on_band(stars, mesh, band, colours):
+    """The band's ``colours`` (N, C) with ``stars`` painted in, and the strokes' field about them (N, 3)."""
+    def normals(index):
+        return mesh.normal(band.cp[index].astype(np.float64), band.face[index], band.bary[index])
+
+    return stars.paint(band.cp, normals, colours), stars.field(band.cp, normals)
+
+
+def _border_points(mesh):
+    """The vertices (B, 3) on the mesh's open border: those of edges that only one face has."""
+    faces = np.asarray(mesh.input_faces)
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    return mesh.vertices[np.unique(unique[counts == 1])]
+
+
+def find_stars(mesh, band, colours, count, radius, ring, seed=0):
+    """Up to ``count`` :class:`Stars` of core ``radius`` (rings ``ring`` apart) in the sky of the band's
+    sRGB ``colours`` (N, C): its light, calm parts (see the module's notes)."""
+    from scipy.spatial import cKDTree
+
+    from .smoothing import GridGaussian
+
+    none = Stars(np.zeros((0, 3)), np.zeros((0, 3)), radius, ring)
+    if count <= 0 or band.size == 0:
+        return none
+    lightness = to_oklab(np.asarray(colours).reshape(band.size, -1)[:, :3])[:, 0].astype(np.float32)
+    core = GridGaussian(band, 0.5 * radius**2)
+    halo = core.at_time(0.5 * (HALO * radius) ** 2)
+    spot = core(lightness[None, :])[0]
+    around, spread = halo(np.stack([lightness, (lightness - spot) ** 2]))
+    near = np.abs(band.dist) <= band.h                   # points next to the surface stand for it
+    light = around >= max(float(np.quantile(lightness[near], SKY)), SKY_LIGHT)
+    calm = (spread <= np.quantile(spread[near], CALM)) & (np.abs(spot - around) <= MIN_CONTRAST)
+    candidates = np.flatnonzero(near & light & calm)
+    border = _border_points(mesh)
+    if len(candidates) and len(border):                  # a whole star, not one cut by the border
+        reach, _ = cKDTree(border).query(band.cp[candidates], distance_upper_bound=SIZES[0] * BORDER * radius)
+        candidates = candidates[np.isinf(reach)]
+    if not len(candidates):
+        return none
+    rng = np.random.default_rng([int(seed), 7])
+    candidates = rng.permutation(candidates)[:CANDIDATES]             # scattered over the sky, not in a row
+    points = band.cp[candidates].astype(np.float64)
+    chosen = []
+    apart2 = (APART * SIZES[0] * radius) ** 2
+    for i, p in enumerate(points):
+        if all(np.sum((p - points[j]) ** 2) >= apart2 for j in chosen):
+            chosen.append(i)
+            if len(chosen) == count:
+                break
+    picked = candidates[chosen]
+    normals = mesh.normal(band.cp[picked].astype(np.float64), band.face[picked], band.bary[picked])
+    radii = radius * (SIZES[1] + (SIZES[0] - SIZES[1]) * rng.random(len(picked)))
+    return Stars(band.cp[picked], normals, radii, ring)

@@ -1,0 +1,118 @@
+"""Stars in the picture's sky, as in van Gogh's "The Starry Night" (1889)."""
+
+import numpy as np
+import pytest
+
+from cp_stylize import Band, Sphere
+from cp_stylize.baking import atlas_points
+from cp_stylize.mesh import TriangleMesh, parametric_mesh
+from cp_stylize.oklab import to_oklab
+from cp_stylize.pipeline import ColourInput, STAR_RADIUS, stylize
+from cp_stylize.presets import StylizeSettings, load_preset
+from cp_stylize.stars import APART, BORDER, CORE, HALO, SIZES, Stars, find_stars, on_band
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    vertices, faces, uvs = parametric_mesh(Sphere().point, 96, 48, periodic_u=True)
+    mesh = TriangleMesh(vertices, faces)
+    return mesh, Band.build(mesh, 0.03), uvs
+
+
+def _sky_and_ground(band, ground_light=0.7):
+    """A light, calm sky over z > 0 and a busy, striped ground below."""
+    z = band.cp[:, 2]
+    stripes = ground_light * (0.5 + 0.5 * np.sign(np.sin(60 * band.cp[:, 0])))
+    grey = np.where(z > 0, 0.85, stripes)
+    return np.repeat(grey[:, None], 3, axis=1).astype(np.float32)
+
+
+def test_stars_go_in_the_light_calm_sky_apart_and_no_more_than_asked(sphere):
+    mesh, band, _ = sphere
+    radius = 0.08
+    stars = find_stars(mesh, band, _sky_and_ground(band), 6, radius, 0.03, seed=1)
+    assert 1 <= len(stars) <= 6
+    assert np.all(stars.centres[:, 2] > 0.2)                   # in the sky, clear of the busy ground
+    d = np.linalg.norm(stars.centres[:, None] - stars.centres[None], axis=2)[np.triu_indices(len(stars), 1)]
+    assert np.all(d >= APART * SIZES[0] * radius - 1e-9)
+    assert np.all((stars.radii >= SIZES[1] * radius - 1e-12) & (stars.radii <= SIZES[0] * radius + 1e-12))
+    np.testing.assert_allclose(np.einsum("ij,ij->i", stars.normals, stars.centres), 1.0, atol=0.02)   # outward
+    # the same seed places the same stars; a dark or a busy picture has none
+    np.testing.assert_array_equal(find_stars(mesh, band, _sky_and_ground(band), 6, radius, 0.03, seed=1).centres,
+                                  stars.centres)
+    dark = np.full((band.size, 3), 0.2, np.float32)
+    assert len(find_stars(mesh, band, dark, 6, radius, 0.03)) == 0
+    assert len(find_stars(mesh, band, _sky_and_ground(band), 0, radius, 0.03)) == 0
+
+
+def test_no_star_is_cut_by_the_meshs_open_border():
+    vertices, faces, _ = parametric_mesh(lambda u, v: np.stack([2 * u - 1, v - 0.5, 0 * u], axis=-1), 60, 30)
+    mesh = TriangleMesh(vertices, faces)
+    band = Band.build(mesh, 0.03)
+    radius = 0.05
+    stars = find_stars(mesh, band, np.full((band.size, 3), 0.9, np.float32), 40, radius, 0.02)
+    assert len(stars) > 3
+    box = np.abs(mesh.vertices[:, :2]).max(axis=0)
+    room = box[None, :] - np.abs(stars.centres[:, :2])
+    assert room.min() >= BORDER * SIZES[0] * radius - 0.01
+
+
+def test_a_star_is_a_core_ringed_by_alternating_halos_and_strokes_circle_it():
+    star = Stars([[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]], 0.1, 0.02)
+    r = np.linspace(0.0, 0.5, 501)
+    points = np.column_stack([r, np.zeros_like(r), np.ones_like(r)])
+    up = np.tile([0.0, 0.0, 1.0], (len(r), 1))
+    grey = np.full((len(r), 3), 0.1, np.float32)
+    painted = star.paint(points, lambda i: up[i], grey)
+    np.testing.assert_allclose(painted[0], CORE, atol=1e-6)                      # the core
+    beyond = r > HALO * 0.1
+    np.testing.assert_array_equal(painted[beyond], grey[beyond])                  # nothing past the halo
+    blue = painted[:, 2] - painted[:, 0]                                          # the rings, by turns
+    ring = (r > 0.07) & (r < 0.2)
+    assert np.sum(np.diff(np.sign(blue[ring])) != 0) >= 3
+    # the other side of a thin part is left alone
+    np.testing.assert_array_equal(star.paint(points, lambda i: -up[i], grey), grey)
+    field = star.field(points, lambda i: up[i])
+    length = np.linalg.norm(field, axis=1)
+    np.testing.assert_allclose(length[(r > 0.01) & (r < HALO * 0.1)], 1.0, atol=1e-9)
+    assert np.all(length[r > 1.3 * HALO * 0.1] == 0)
+    np.testing.assert_allclose(field[:, 0], 0.0, atol=1e-12)                     # at right angles to the radius
+    np.testing.assert_allclose(field[:, 2], 0.0, atol=1e-12)                     # in the tangent plane
+
+
+def test_a_star_on_the_uv_seam_is_painted_whole_on_both_sides(sphere):
+    mesh, band, _ = sphere
+    # the seam of the UV sphere runs at u = 0, the +x side; a star there spans both of its edges
+    centre = np.array([[1.0, 0.0, 0.0]])
+    star = Stars(centre, centre, 0.1, 0.03)
+    painted, field = on_band(star, mesh, band, np.full((band.size, 3), 0.2, np.float32))
+    yellow = np.linalg.norm(painted - np.float32(CORE), axis=1) < 0.05
+    side = band.cp[yellow, 1]
+    assert side.min() < -0.03 and side.max() > 0.03 and abs(side.mean()) < 0.01
+    assert np.linalg.norm(field, axis=1).max() == pytest.approx(1.0)
+
+
+def test_a_starry_run_puts_star_yellow_in_the_sky_and_none_without_stars(sphere):
+    mesh, _, uvs = sphere
+    image = np.zeros((64, 128, 3), np.float32)
+    image[32:] = 0.8                                             # a light, calm sky over one half
+    image[:32] = np.where((np.arange(128) // 4) % 2, 0.6, 0.05)[None, :, None]   # a busy ground over the other
+    faces = np.arange(len(mesh.input_faces))
+    colours = ColourInput(textures=[(image, uvs, np.ones(len(faces), bool))])
+    preset = load_preset("starry_night")
+    assert preset.stars > 0
+    settings = preset.replace(image_size=256, spacing=0.03, relief=0.0, stroke_layers=1)
+    starry = stylize(mesh.vertices, mesh.input_faces, colours, settings, uvs=uvs).image
+    plain = stylize(mesh.vertices, mesh.input_faces, colours, settings.replace(stars=0), uvs=uvs).image
+    result = stylize(mesh.vertices, mesh.input_faces, colours, settings, uvs=uvs)
+    flat, points, _, _ = atlas_points(mesh, result.atlas, 0)
+    changed = np.abs(result.image.reshape(-1, 3)[flat] - plain.reshape(-1, 3)[flat]).max(axis=1) > 0.1
+    # the stars change a few discs of the surface, in the sky (the picture's upper half, z > 0); below, only
+    # the palette's tone ranks move a little
+    sky = points[:, 2] > 0
+    assert 0.03 < np.mean(changed[sky]) < 0.3 and np.mean(changed[~sky]) < 0.005
+    np.testing.assert_array_equal(result.image, starry)
+    # star yellow in the stars' cores: light and yellow (OKLab b above 0.08)
+    lab = to_oklab(starry.reshape(-1, 3)[flat][changed])
+    assert np.mean((lab[:, 0] > 0.75) & (lab[:, 2] > 0.08)) > 0.05
+    assert StylizeSettings().stars == 0 and STAR_RADIUS > 0
