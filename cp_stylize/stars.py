@@ -12,10 +12,10 @@ so a star crosses UV seams whole:
   radii).  A star may go where the halo's lightness is at least
   :data:`SKY_LIGHT` (and among the picture's lightest :data:`SKY` share), where
   the picture's spread about the core's smoothed lightness, over the halo, is
-  among its calmest :data:`CALM` share, where the core stands out from the
-  halo by at most :data:`MIN_CONTRAST` (no edge runs through it), and at least
-  :data:`BORDER` radii from the mesh's open border (a star's core is never
-  cut).  Those places are taken in a random order (``seed``), so the stars
+  among its calmest :data:`CALM` share (or below :data:`STILL`), where the
+  core stands out from the halo by at most :data:`MIN_CONTRAST` (no edge runs
+  through it), and at least :data:`BORDER` radii from the mesh's open border
+  (a star is not cut).  Those places are taken in a random order (``seed``), so the stars
   scatter over the sky, at most ``count`` of them, each at least :data:`APART`
   radii from the others;
 - **painted into the picture**, before the palette maps its colours, so the
@@ -54,10 +54,12 @@ SKY = 0.6
 #: ... and where the picture is among its calmest this share (its lightness's spread about its smoothed
 #: self, over the halo).
 CALM = 0.25
-#: A star's centre keeps this many radii from the mesh's open border: its core and first ring whole.
-BORDER = 1.6
+#: A star's centre keeps this many radii from the mesh's open border: its core and most of its halo whole.
+BORDER = 2.2
+#: ... a spread of at most this (OKLab) is calm in any picture.
+STILL = 0.01
 #: The largest and smallest stars' radii, as shares of the radius asked for.
-SIZES = (1.2, 0.75)
+SIZES = (1.5, 0.5)
 #: The core's colour and the halo rings' colours, taken by turns (sRGB, in the picture: the palette
 #: mapping makes them the palette's own).
 CORE = (1.0, 0.94, 0.62)
@@ -196,7 +198,8 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     around, spread = halo(np.stack([lightness, (lightness - spot) ** 2]))
     near = np.abs(band.dist) <= band.h                   # points next to the surface stand for it
     light = around >= max(float(np.quantile(lightness[near], SKY)), SKY_LIGHT)
-    calm = (spread <= np.quantile(spread[near], CALM)) & (np.abs(spot - around) <= MIN_CONTRAST)
+    calm = spread <= max(float(np.quantile(spread[near], CALM)), STILL**2)
+    calm &= np.abs(spot - around) <= MIN_CONTRAST
     candidates = np.flatnonzero(near & light & calm)
     border = _border_points(mesh)
     if len(candidates) and len(border):                  # a whole star, not one cut by the border
