@@ -173,12 +173,21 @@ def on_band(stars, mesh, band, colours):
     return stars.paint(band.cp, normals, colours), stars.field(band.cp, normals)
 
 
-def _border_points(mesh):
-    """The vertices (B, 3) on the mesh's open border: those of edges that only one face has."""
+def _border_points(mesh, spacing):
+    """Points (B, 3) along the mesh's open border (the edges that only one face has), at most ``spacing``
+    apart along each edge, its ends included."""
     faces = np.asarray(mesh.input_faces)
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     unique, counts = np.unique(edges, axis=0, return_counts=True)
-    return mesh.vertices[np.unique(unique[counts == 1])]
+    open_edges = unique[counts == 1]
+    if not len(open_edges):
+        return np.zeros((0, 3))
+    a, b = mesh.vertices[open_edges[:, 0]], mesh.vertices[open_edges[:, 1]]
+    pieces = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / spacing).astype(np.int64))
+    edge = np.repeat(np.arange(len(open_edges)), pieces + 1)
+    start = np.cumsum(pieces + 1) - (pieces + 1)
+    t = (np.arange(len(edge)) - start[edge]) / pieces[edge]
+    return a[edge] + t[:, None] * (b[edge] - a[edge])
 
 
 def find_stars(mesh, band, colours, count, radius, ring, seed=0):
@@ -201,7 +210,7 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     calm = spread <= max(float(np.quantile(spread[near], CALM)), STILL**2)
     calm &= np.abs(spot - around) <= MIN_CONTRAST
     candidates = np.flatnonzero(near & light & calm)
-    border = _border_points(mesh)
+    border = _border_points(mesh, 0.5 * radius)
     if len(candidates) and len(border):                  # a whole star, not one cut by the border
         reach, _ = cKDTree(border).query(band.cp[candidates], distance_upper_bound=SIZES[0] * BORDER * radius)
         candidates = candidates[np.isinf(reach)]

@@ -45,8 +45,10 @@ def test_stars_go_in_the_light_calm_sky_apart_and_no_more_than_asked(sphere):
     assert len(find_stars(mesh, band, _sky_and_ground(band), 0, radius, 0.03)) == 0
 
 
-def test_no_star_is_cut_by_the_meshs_open_border():
-    vertices, faces, _ = parametric_mesh(lambda u, v: np.stack([2 * u - 1, v - 0.5, 0 * u], axis=-1), 60, 30)
+@pytest.mark.parametrize("cells", [(60, 30), (1, 1)])
+def test_no_star_is_cut_by_the_meshs_open_border(cells):
+    # a finely meshed frame, and one of two triangles whose border has vertices at its corners alone
+    vertices, faces, _ = parametric_mesh(lambda u, v: np.stack([2 * u - 1, v - 0.5, 0 * u], axis=-1), *cells)
     mesh = TriangleMesh(vertices, faces)
     band = Band.build(mesh, 0.03)
     radius = 0.05
