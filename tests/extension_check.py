@@ -4,14 +4,16 @@
     blender -b --factory-startup --python tests/extension_check.py -- ZIP
 
 Run it with a throw-away user configuration (``HOME=$(mktemp -d)``): the
-extension is installed into the user repository.  SciPy and xatlas must come
-from the zip's wheels: copies elsewhere on the path (a virtual environment's,
-the system's) are hidden.  It checks that enabling the add-on imports no SciPy,
+extension is installed into the user repository.  SciPy, xatlas and libigl
+must come from the zip's wheels: copies elsewhere on the path (a virtual
+environment's, the system's) are hidden.  It checks that enabling the add-on imports no SciPy,
 then runs Starry Night on an image-textured sphere and a Gaussian blur on a
-procedural (checker) sphere, checks both results, and prints one line that
+procedural (checker) sphere, checks both results, filters the sphere's vertices
+with the mesh filter (libigl), and prints one line that
 starts with ``EXTENSION CHECK PASSED``.  Any failure raises.
 """
 
+import importlib
 import importlib.abc
 import importlib.machinery
 import os
@@ -21,11 +23,11 @@ import bpy
 import numpy as np
 
 ADDON = "bl_ext.user_default.cp_stylize"
-SHIPPED = ("scipy", "xatlas")
+SHIPPED = ("scipy", "xatlas", "igl")
 
 
 class OnlyFromExtensions(importlib.abc.MetaPathFinder):
-    """Find SciPy and xatlas only in this user's extensions' site-packages, where the zip's wheels go."""
+    """Find SciPy, xatlas and libigl only in this user's extensions' site-packages, where the zip's wheels go."""
 
     def find_spec(self, name, path=None, target=None):
         if path is not None or name not in SHIPPED:
@@ -132,10 +134,19 @@ def main(zip_path):
     assert grey[covered].max() - grey[covered].min() > 0.3, "the baked checker lost its two tones"
     assert "cp_stylize bake" not in bpy.data.images and "Checker" in bpy.data.materials
 
+    import igl
     import scipy
     import xatlas
 
-    for module in (scipy, xatlas):
+    # the mesh filters' libigl, from the zip's wheel
+    mesh_diffuse = importlib.import_module(ADDON + ".cp_stylize.mesh_diffusion").mesh_diffuse
+    mesh = procedural.data
+    vertices = np.array([v.co for v in mesh.vertices])
+    faces = np.array([p.vertices[:] for p in mesh.polygons if len(p.vertices) == 3], dtype=np.int64)
+    if len(faces):
+        blurred = mesh_diffuse(vertices, faces, vertices[:, 2], mode="gaussian", T=0.05)
+        assert np.ptp(blurred) < np.ptp(vertices[:, 2]), "the mesh filter did not smooth"
+    for module in (scipy, xatlas, igl):
         assert os.path.realpath(module.__file__).startswith(user_extensions()), module.__file__
     print(f"EXTENSION CHECK PASSED blender={bpy.app.version_string} python={sys.version.split()[0]} "
           f"numpy={np.__version__} scipy={scipy.__version__} from {os.path.dirname(scipy.__file__)}", flush=True)

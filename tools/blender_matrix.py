@@ -74,8 +74,8 @@ def must(cmd, **kwargs):
 
 
 def requirements(bpy, numpy):
-    shared = pinned_versions(["scipy", "xatlas", "pytest"])
-    reqs = [f"bpy=={bpy}"] + [f"{name}=={shared[name]}" for name in ("scipy", "xatlas", "pytest")]
+    shared = pinned_versions(["scipy", "xatlas", "libigl", "pytest"])
+    reqs = [f"bpy=={bpy}"] + [f"{name}=={shared[name]}" for name in ("scipy", "xatlas", "libigl", "pytest")]
     return reqs + ([f"numpy=={numpy}"] if numpy else [])
 
 

@@ -8,7 +8,7 @@ Usage (from any directory, with the Python that has the ``bpy`` module)::
 
 For each requested Blender platform the script
 
-1. downloads the wheels of SciPy and xatlas (the versions pinned in
+1. downloads the wheels of SciPy, xatlas and libigl (the versions pinned in
    ``requirements.txt``) for each Python Blender runs: cp311 (Blender 4.2 to
    5.0) and cp313 (5.1 and newer), with ``pip download --only-binary=:all:
    --no-deps``; pip's cache makes later runs cheap.  Blender installs the
@@ -40,7 +40,7 @@ older ones):
   wheel, so this zip needs macOS 12 while Blender itself runs on 11.2);
 - ``macos-x64``: ``macosx_11_0_x86_64`` (Blender's own minimum, macOS 11.2).
 
-SciPy is required: a platform without a wheel of the pinned version fails the
+SciPy and libigl are required: a platform without a wheel of a pinned version fails the
 build.  xatlas is optional: where the pinned version has no wheel, that
 platform's zip is built without it (the script says so) and the add-on falls
 back to the mesh's own UVs.  Older xatlas releases are not used as a
@@ -71,7 +71,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MANIFEST = "blender_manifest.toml"
 #: The Pythons of the Blender versions the extension supports: 3.11 (4.2 to 5.0), 3.13 (5.1 and newer).
 PYTHON_VERSIONS = ("3.11", "3.13")
-REQUIRED = ("scipy",)
+REQUIRED = ("scipy", "libigl")
 OPTIONAL = ("xatlas",)
 PIP_PLATFORMS = {
     "linux-x64": tuple(f"manylinux_2_{minor}_x86_64" for minor in range(28, 16, -1)) + ("manylinux2014_x86_64",),

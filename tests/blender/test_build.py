@@ -1,4 +1,5 @@
-"""The shippable build: tools/build_extension.py makes a linux-x64 zip with SciPy and xatlas for Python 3.11 and 3.13."""
+"""The shippable build: tools/build_extension.py makes a linux-x64 zip with SciPy, xatlas and libigl for Python 3.11 and
+3.13."""
 
 import importlib.util
 import os
@@ -28,7 +29,7 @@ def pins():
     spec = importlib.util.spec_from_file_location("build_extension", SCRIPT)
     build_extension = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(build_extension)
-    return build_extension.pinned_versions(["scipy", "xatlas"])
+    return build_extension.pinned_versions(["scipy", "xatlas", "libigl"])
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +49,7 @@ def linux_zip(tmp_path_factory):
     return zip_path
 
 
-def test_linux_zip_validates_and_ships_scipy_and_xatlas_for_both_pythons_but_not_numpy(linux_zip):
+def test_linux_zip_validates_and_ships_scipy_xatlas_and_libigl_for_both_pythons_but_not_numpy(linux_zip):
     run_extension_tool("validate", str(linux_zip))
     versions = pins()
     with zipfile.ZipFile(linux_zip) as zf:
@@ -56,6 +57,7 @@ def test_linux_zip_validates_and_ships_scipy_and_xatlas_for_both_pythons_but_not
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
     wheels = sorted(n for n in names if n.endswith(".whl"))
     assert [(w.split("-")[:3]) for w in wheels] == [
+        ["wheels/libigl", versions["libigl"], "cp311"], ["wheels/libigl", versions["libigl"], "cp312"],   # abi3: 3.13
         ["wheels/scipy", versions["scipy"], "cp311"], ["wheels/scipy", versions["scipy"], "cp313"],
         ["wheels/xatlas", versions["xatlas"], "cp311"], ["wheels/xatlas", versions["xatlas"], "cp313"]]
     assert all("x86_64" in w for w in wheels)
