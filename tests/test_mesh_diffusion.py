@@ -133,3 +133,17 @@ def test_bad_input_is_refused_with_what_is_wrong(sphere):
     flat[0] = [flat[0, 0], flat[0, 0], flat[0, 1]]
     with pytest.raises(ValueError, match="1 faces have no area"):
         MeshOperators.of(vertices, flat)
+
+
+def test_the_linear_filter_converges_to_the_heat_flow_on_the_sphere_at_second_order():
+    # x y is a spherical harmonic of degree 2: the heat flow on the unit sphere scales it by exp(-6 T)
+    T, errors = 0.05, []
+    for subdivisions in (3, 4, 5):
+        vertices, faces = icosphere(subdivisions)
+        ops = MeshOperators.of(vertices, faces)
+        u0 = vertices[:, 0] * vertices[:, 1]
+        exact = u0 * np.exp(-6 * T)
+        u = mesh_diffuse(vertices, faces, u0, mode="gaussian", T=T, operators=ops)
+        errors.append(np.sqrt(ops.mass @ (u - exact) ** 2 / (ops.mass @ exact**2)))
+    # each halving of the edges (and so a quarter of the time step) divides the error by about 4
+    assert errors[0] / errors[1] > 2.4 and errors[1] / errors[2] > 3.0 and errors[2] < 0.005
