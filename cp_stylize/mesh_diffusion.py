@@ -75,7 +75,10 @@ class MeshOperators:
     """The finite element operators of a triangle mesh: ``grad`` (3F, n), the gradient of a piecewise
     linear function on each face (x components of all faces, then y, then z); ``area`` (F,); ``mass``
     (n,), the lumped mass matrix's diagonal; ``normal`` (F, 3), the faces' unit normals; ``edge``: the
-    mean edge length; ``corners`` (F, 3): the faces' vertex numbers."""
+    mean edge length; ``corners`` (F, 3): the faces' vertex numbers; ``basis`` (F, 3, 3): the gradients
+    of each face's three hat functions (component, corner), read from ``grad``; ``laplacian``: the
+    stiffness of the identity tensor, minus libigl's cotangent matrix; ``tangents`` (F, 2, 3): two unit
+    vectors in each face's plane, at right angles."""
 
     grad: sp.csr_matrix
     area: np.ndarray
@@ -83,6 +86,9 @@ class MeshOperators:
     normal: np.ndarray
     edge: float
     corners: np.ndarray
+    basis: np.ndarray
+    laplacian: sp.csr_matrix
+    tangents: np.ndarray
 
     @classmethod
     def of(cls, vertices, faces):
@@ -105,7 +111,17 @@ class MeshOperators:
         grad = sp.csr_matrix(igl.grad(vertices, faces))
         grad = sp.csr_matrix((grad.data, grad.indices, grad.indptr), shape=(grad.shape[0], n))
         edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
-        return cls(grad, 0.5 * double, mass, cross / double[:, None], float(edges.mean()), faces)
+        F = len(faces)
+        rows = (np.arange(3)[:, None, None] * F + np.arange(F)[None, :, None]).repeat(3, axis=2)
+        basis = np.asarray(grad[rows.ravel(), np.broadcast_to(faces, (3, F, 3)).ravel()]).reshape(3, F, 3)
+        laplacian = -sp.csr_matrix(igl.cotmatrix(vertices, faces))
+        laplacian = sp.csr_matrix((laplacian.data, laplacian.indices, laplacian.indptr), shape=(n, n))
+        normal = cross / double[:, None]
+        first = corners[:, 1] - corners[:, 0]
+        first /= np.linalg.norm(first, axis=1, keepdims=True)
+        tangents = np.stack([first, np.cross(normal, first)], axis=1)
+        return cls(grad, 0.5 * double, mass, normal, float(edges.mean()), faces, basis.transpose(1, 0, 2),
+                   laplacian, tangents)
 
     @property
     def faces(self):
@@ -117,16 +133,20 @@ class MeshOperators:
 
     def stiffness(self, tensor=None):
         """``K = sum_T |T| G_T^T D_T G_T`` (n, n, CSR) for face tensors ``tensor`` (F, 3, 3), or a face
-        diffusivity (F,), or None (the identity)."""
-        F = self.faces
+        diffusivity (F,), or None (the identity: :attr:`laplacian`); assembled face by face from the
+        hat functions' gradients."""
         if tensor is None:
-            tensor = np.ones(F)
+            return self.laplacian
         tensor = np.asarray(tensor, dtype=np.float64)
+        B = self.basis
         if tensor.ndim == 1:
-            weights = sp.diags(np.tile(self.area * tensor, 3))
-            return (self.grad.T @ weights @ self.grad).tocsr()
-        blocks = [[sp.diags(self.area * tensor[:, i, j]) for j in range(3)] for i in range(3)]
-        return (self.grad.T @ sp.bmat(blocks, format="csr") @ self.grad).tocsr()
+            local = np.einsum("fai,faj->fij", B, B) * (self.area * tensor)[:, None, None]
+        else:
+            local = np.einsum("fai,fab,fbj->fij", B, tensor, B) * self.area[:, None, None]
+        n = len(self.mass)
+        rows = np.repeat(self.corners, 3, axis=1).ravel()
+        cols = np.tile(self.corners, (1, 3)).ravel()
+        return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n))
 
     def implicit_step(self, values, tau, K):
         """``u`` with ``(M + tau K) u = M values`` (n, C), by conjugate gradients preconditioned with the
@@ -145,7 +165,7 @@ class MeshOperators:
 
     def smoothed(self, values, t):
         """``values`` (n, C) smoothed by one implicit step of the linear filter to time ``t``."""
-        return values if t <= 0 else self.implicit_step(values, t, self.stiffness())
+        return values if t <= 0 else self.implicit_step(values, t, self.laplacian)
 
     def in_plane(self, tensors):
         """Face tensors (F, 3, 3) projected into their faces' planes: ``P J P`` with ``P = I - n n^T``."""
@@ -181,12 +201,18 @@ class MeshOperators:
         return vertex_values[self.corners].mean(axis=1)
 
 
-def _eigen_in_plane(J):
-    """The larger and smaller eigenvalues (F,) of symmetric face tensors (F, 3, 3) that lie in their faces'
-    planes, and the unit eigenvector (F, 3) of the larger; the third eigenvalue (about 0, along the
-    normal) is left out."""
-    values, vectors = np.linalg.eigh(J)                 # ascending: the normal's ~0 is the smallest
-    return values[:, 2], values[:, 1], vectors[:, :, 2]
+def _eigen_in_plane(ops, J):
+    """The larger and smaller eigenvalues (F,) of symmetric face tensors (F, 3, 3) taken in their faces'
+    planes (the 2 x 2 tensors in :attr:`MeshOperators.tangents`), and the unit eigenvector (F, 3) of the
+    larger."""
+    t1, t2 = ops.tangents[:, 0], ops.tangents[:, 1]
+    a = np.einsum("fi,fij,fj->f", t1, J, t1)
+    b = np.einsum("fi,fij,fj->f", t1, J, t2)
+    c = np.einsum("fi,fij,fj->f", t2, J, t2)
+    half = np.hypot(0.5 * (a - c), b)
+    mean = 0.5 * (a + c)
+    angle = 0.5 * np.arctan2(2.0 * b, a - c)             # the larger eigenvalue's direction in (t1, t2)
+    return mean + half, mean - half, np.cos(angle)[:, None] * t1 + np.sin(angle)[:, None] * t2
 
 
 def _tensor(ops, kappa_across, kappa_along, w):
@@ -234,7 +260,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
             g = ops.gradients(u)
             K = ops.stiffness(1.0 / (1.0 + np.sum(g**2, axis=(1, 2)) / lam2))
         elif mode in ("eed", "ced"):
-            mu1, mu2, w = _eigen_in_plane(ops.structure(u, p["sigma"], p["rho"]))
+            mu1, mu2, w = _eigen_in_plane(ops, ops.structure(u, p["sigma"], p["rho"]))
             c = np.maximum(mu1 - mu2, 0.0)
             if scale is None:
                 scale = max(float(c.max()), TINY)
