@@ -14,10 +14,10 @@ so a star crosses UV seams whole:
   the picture's spread about the core's smoothed lightness, over the halo, is
   among its calmest :data:`CALM` share (or below :data:`STILL`), where the
   core stands out from the halo by at most :data:`MIN_CONTRAST` (no edge runs
-  through it), and at least :data:`BORDER` radii from the mesh's open border
-  (a star is not cut).  Those places are taken in a random order (``seed``), so the stars
-  scatter over the sky, at most ``count`` of them, each at least :data:`APART`
-  radii from the others;
+  through it), and with its whole halo clear of the mesh's open border.  Those
+  places are taken in a random order (``seed``), each with its own radius, so
+  the stars scatter over the sky in several sizes, at most ``count`` of them,
+  their halos overlapping by at most :data:`OVERLAP` of their reach;
 - **painted into the picture**, before the palette maps its colours, so the
   palette gives a star its own colours: a :data:`CORE` colour over the core
   (:data:`CORE_SHARE` of the radius) and around it, out to :data:`HALO` radii,
@@ -43,8 +43,8 @@ __all__ = ["Stars", "find_stars", "on_band", "on_picture"]
 
 #: A star's halo reaches this many core radii from its centre.
 HALO = 2.6
-#: Stars keep at least this many core radii apart.
-APART = 4.0
+#: Two stars' halos may overlap by at most this share of the sum of their reaches.
+OVERLAP = 0.1
 #: A star's core may be lighter or darker than its halo by at most this much (OKLab; smoothed).
 MIN_CONTRAST = 0.03
 #: Stars go where the halo's smoothed OKLab lightness is at least this ...
@@ -54,8 +54,6 @@ SKY = 0.6
 #: ... and where the picture is among its calmest this share (its lightness's spread about its smoothed
 #: self, over the halo).
 CALM = 0.25
-#: A star's centre keeps this many radii from the mesh's open border: its core and most of its halo whole.
-BORDER = 2.2
 #: ... a spread of at most this (OKLab) is calm in any picture.
 STILL = 0.01
 #: The largest and smallest stars' radii, as shares of the radius asked for.
@@ -210,23 +208,25 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     calm = spread <= max(float(np.quantile(spread[near], CALM)), STILL**2)
     calm &= np.abs(spot - around) <= MIN_CONTRAST
     candidates = np.flatnonzero(near & light & calm)
-    border = _border_points(mesh, 0.5 * radius)
-    if len(candidates) and len(border):                  # a whole star, not one cut by the border
-        reach, _ = cKDTree(border).query(band.cp[candidates], distance_upper_bound=SIZES[0] * BORDER * radius)
-        candidates = candidates[np.isinf(reach)]
     if not len(candidates):
         return none
     rng = np.random.default_rng([int(seed), 7])
     candidates = rng.permutation(candidates)[:CANDIDATES]             # scattered over the sky, not in a row
+    radii = radius * (SIZES[1] + (SIZES[0] - SIZES[1]) * rng.random(len(candidates)))
+    border = _border_points(mesh, 0.5 * radius)
+    if len(border):                                      # a whole star, not one cut by the border
+        clear, _ = cKDTree(border).query(band.cp[candidates])
+        whole = clear >= HALO * radii
+        candidates, radii = candidates[whole], radii[whole]
     points = band.cp[candidates].astype(np.float64)
     chosen = []
-    apart2 = (APART * SIZES[0] * radius) ** 2
     for i, p in enumerate(points):
-        if all(np.sum((p - points[j]) ** 2) >= apart2 for j in chosen):
+        if all(np.linalg.norm(p - points[j]) >= (1.0 - OVERLAP) * HALO * (radii[i] + radii[j]) for j in chosen):
             chosen.append(i)
             if len(chosen) == count:
                 break
     picked = candidates[chosen]
+    if not len(picked):
+        return none
     normals = mesh.normal(band.cp[picked].astype(np.float64), band.face[picked], band.bary[picked])
-    radii = radius * (SIZES[1] + (SIZES[0] - SIZES[1]) * rng.random(len(picked)))
-    return Stars(band.cp[picked], normals, radii, ring)
+    return Stars(band.cp[picked], normals, radii[chosen], ring)

@@ -9,7 +9,7 @@ from cp_stylize.mesh import TriangleMesh, parametric_mesh
 from cp_stylize.oklab import to_oklab
 from cp_stylize.pipeline import ColourInput, STAR_RADIUS, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
-from cp_stylize.stars import APART, BORDER, CORE, HALO, SIZES, Stars, find_stars, on_band
+from cp_stylize.stars import CORE, HALO, OVERLAP, SIZES, Stars, find_stars, on_band
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +33,10 @@ def test_stars_go_in_the_light_calm_sky_apart_and_no_more_than_asked(sphere):
     stars = find_stars(mesh, band, _sky_and_ground(band), 6, radius, 0.03, seed=1)
     assert 1 <= len(stars) <= 6
     assert np.all(stars.centres[:, 2] > 0.2)                   # in the sky, clear of the busy ground
-    d = np.linalg.norm(stars.centres[:, None] - stars.centres[None], axis=2)[np.triu_indices(len(stars), 1)]
-    assert np.all(d >= APART * SIZES[0] * radius - 1e-9)
+    pairs = np.triu_indices(len(stars), 1)
+    d = np.linalg.norm(stars.centres[:, None] - stars.centres[None], axis=2)[pairs]
+    reach = HALO * (stars.radii[:, None] + stars.radii[None, :])[pairs]
+    assert np.all(d >= (1.0 - OVERLAP) * reach - 1e-9)
     assert np.all((stars.radii >= SIZES[1] * radius - 1e-12) & (stars.radii <= SIZES[0] * radius + 1e-12))
     np.testing.assert_allclose(np.einsum("ij,ij->i", stars.normals, stars.centres), 1.0, atol=0.02)   # outward
     # the same seed places the same stars; a dark or a busy picture has none
@@ -55,8 +57,8 @@ def test_no_star_is_cut_by_the_meshs_open_border(cells):
     stars = find_stars(mesh, band, np.full((band.size, 3), 0.9, np.float32), 40, radius, 0.02)
     assert len(stars) > 3
     box = np.abs(mesh.vertices[:, :2]).max(axis=0)
-    room = box[None, :] - np.abs(stars.centres[:, :2])
-    assert room.min() >= BORDER * SIZES[0] * radius - 0.01
+    room = (box[None, :] - np.abs(stars.centres[:, :2])).min(axis=1)
+    assert np.all(room >= HALO * stars.radii - 0.01)                      # each star's whole halo
 
 
 def test_a_star_is_a_core_ringed_by_alternating_halos_and_strokes_circle_it():
