@@ -64,8 +64,8 @@ CURVATURE_SMOOTHING = 4.0
 #: A band kept for re-runs keeps its bake-out's interpolation for atlases of up to this many baked
 #: texels (a 1024 x 1024 atlas; 64 weights a texel, about 512 MiB), so a re-run bakes out in one product.
 KEEP_BAKE_TEXELS = 1 << 20
-#: A star's core (:mod:`cp_stylize.stars`) is this share of the strokes' length in radius, and its halo's
-#: rings a stroke's width apart: the star is painted at the brush's scale.
+#: A star's radius (:mod:`cp_stylize.stars`; its size varies about it) is this share of the strokes' length,
+#: and its halo's rings a stroke's width apart: the star is painted at the brush's scale.
 STAR_RADIUS = 0.3
 
 
@@ -342,7 +342,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     painted = (cache.owner, band.h, band.stencil, colour_digest(colours))     # the key of the band's colours
     sampled, picture_at = _bake_in(mesh, band, colours, settings, cache, painted)
     star_field = None
-    if settings.strokes > 0 and settings.stars > 0:      # the picture's bright spots painted as stars
+    if settings.strokes > 0 and settings.stars > 0:      # stars in the picture's sky, as painted
         stars = find_stars(mesh, band, sampled, settings.stars, STAR_RADIUS * settings.stroke_length,
                            settings.stroke_width, settings.seed)
         sampled, star_field = on_band(stars, mesh, band, sampled)
