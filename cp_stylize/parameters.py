@@ -111,9 +111,9 @@ RUN = {p.name: p for p in (
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
                                 "(0: they follow the picture alone)", 0.0, 1.0, 0.0,
               file=("strokes", "swirl")),
-    Parameter("stars", "Stars", "Up to this many of the picture's bright spots become stars, as in van Gogh's "
-                                "\"The Starry Night\" (1889): a bright core ringed by halos of strokes that circle it "
-                                "(0: none; with strokes)", 0, 40, 0, "count", precision=0, step=100,
+    Parameter("stars", "Stars", "Up to this many stars in the picture's sky (its light, calm parts), as in van "
+                                "Gogh's \"The Starry Night\" (1889): a bright core ringed by halos of strokes that "
+                                "circle it (0: none; with strokes)", 0, 40, 0, "count", precision=0, step=100,
               file=("strokes", "stars")),
     Parameter("fidelity", "Fidelity", "How much of the picture's own colours the palette keeps: 0 the palette "
                                       "alone, 0.5 the picture's hues in the palette's tones, 1 the picture's colours",
