@@ -18,9 +18,10 @@ window     the same binary in a window on a virtual screen  the window tests (te
 
 (bpy 5.0.1 runs its whole suite with the README's test command.)  The bpy
 module entries get virtual environments under ``.matrix/`` (Python 3.11; bpy,
-NumPy as that Blender bundles it, and SciPy, xatlas and pytest pinned as in
-``requirements.txt``); the chroot entries use ``tools/real_blender.sh``
-(needs root).  Every entry tests the same linux-x64 zip (``--zip``, else built
+NumPy as that Blender bundles it, and SciPy, xatlas, libigl and pytest pinned
+as in ``requirements.txt``); the chroot entries use ``tools/real_blender.sh``
+(needs root; the bpy entry there adds libigl to the chroot's own NumPy and
+SciPy).  Every entry tests the same linux-x64 zip (``--zip``, else built
 first with ``tools/build_extension.py``): its tests install it with Blender's
 own installer and stylize an image-textured and a procedural object.
 Screenshots of the window tests go to ``.matrix/screenshots``.  Each entry
@@ -118,7 +119,9 @@ def run_entry(name, zip_path, clean=False):
         inside = ["env", f"CP_STYLIZE_ZIP={env['CP_STYLIZE_ZIP']}",
                   f"CP_STYLIZE_SCREENSHOTS={env['CP_STYLIZE_SCREENSHOTS']}"]
         if where == "chroot":
-            must([REAL_BLENDER, "venv", f"bpy-{bpy}", *requirements(bpy, numpy)[:1]])
+            # the chroot's own NumPy and SciPy (Debian's), with bpy and the mesh filters' libigl
+            must([REAL_BLENDER, "venv", f"bpy-{bpy}", *[r for r in requirements(bpy, numpy)
+                                                     if r.startswith(("bpy==", "libigl=="))]])
             cmd = [REAL_BLENDER, "run", *inside, f"/opt/bpy-{bpy}/bin/python", "-m", "pytest", *pytest_args]
         elif where == "binary":
             cmd = [REAL_BLENDER, "run", *inside, "blender", "-b", "--factory-startup", "--python-exit-code", "1",
