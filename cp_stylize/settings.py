@@ -199,7 +199,7 @@ class StylizeSettings:
     stroke_chain: int = RUN["stroke_chain"].default
     stroke_jitter: float = RUN["stroke_jitter"].default
     swirl: float = RUN["swirl"].default
-    stars: int = RUN["stars"].default              # bright spots painted as stars (cp_stylize.stars)
+    stars: int = RUN["stars"].default              # stars in the picture's sky (cp_stylize.stars)
     fidelity: float = RUN["fidelity"].default      # mapping "tone": how much of the picture's own colours
     keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)

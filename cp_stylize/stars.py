@@ -144,13 +144,6 @@ class Stars:
         return out
 
 
-def face_normals(mesh, face):
-    """The unit normals (M, 3) of the input faces ``face`` (M,) of ``mesh``."""
-    corners = mesh.vertices[mesh.input_faces[face]]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-
-
 def on_picture(stars, mesh, picture_at):
     """``picture_at(face, bary)`` (the picture's colours at points of the mesh) with ``stars`` painted in."""
     if not len(stars):
@@ -159,7 +152,8 @@ def on_picture(stars, mesh, picture_at):
     def at(face, bary):
         face, bary = np.asarray(face), np.asarray(bary, dtype=np.float64)
         points = np.einsum("nk,nkj->nj", bary, mesh.vertices[mesh.input_faces[face]])
-        return stars.paint(points, lambda index: face_normals(mesh, face[index]), picture_at(face, bary))
+        return stars.paint(points, lambda index: mesh.normal(points[index], face[index], bary[index]),
+                           picture_at(face, bary))
     return at
 
 
@@ -172,12 +166,14 @@ def on_band(stars, mesh, band, colours):
 
 
 def _border_points(mesh, spacing):
-    """Points (B, 3) along the mesh's open border (the edges that only one face has), at most ``spacing``
-    apart along each edge, its ends included."""
-    faces = np.asarray(mesh.input_faces)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    open_edges = unique[counts == 1]
+    """Points (B, 3) along the mesh's open border (the edges that only one of its kept faces has, by vertex
+    position: vertices split at a UV seam are one there), at most ``spacing`` apart along each edge, its ends
+    included."""
+    corners = [[0, 1], [1, 2], [2, 0]]
+    ends = mesh.input_faces[mesh.face_index][:, corners].reshape(-1, 2)            # vertex numbers
+    keys = np.sort(mesh.welded_faces[mesh.face_index][:, corners].reshape(-1, 2), axis=1)   # positions
+    _, first, counts = np.unique(keys, axis=0, return_index=True, return_counts=True)
+    open_edges = ends[first[counts == 1]]
     if not len(open_edges):
         return np.zeros((0, 3))
     a, b = mesh.vertices[open_edges[:, 0]], mesh.vertices[open_edges[:, 1]]

@@ -9,7 +9,7 @@ from cp_stylize.mesh import TriangleMesh, parametric_mesh
 from cp_stylize.oklab import to_oklab
 from cp_stylize.pipeline import ColourInput, STAR_RADIUS, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
-from cp_stylize.stars import CORE, HALO, OVERLAP, SIZES, Stars, find_stars, on_band
+from cp_stylize.stars import CORE, HALO, OVERLAP, SIZES, Stars, _border_points, find_stars, on_band
 
 
 @pytest.fixture(scope="module")
@@ -59,6 +59,18 @@ def test_no_star_is_cut_by_the_meshs_open_border(cells):
     box = np.abs(mesh.vertices[:, :2]).max(axis=0)
     room = (box[None, :] - np.abs(stars.centres[:, :2])).min(axis=1)
     assert np.all(room >= HALO * stars.radii - 0.01)                      # each star's whole halo
+
+
+def test_a_uv_seam_with_its_vertices_split_is_no_border():
+    # a frame whose two halves have their own vertices along x = 0 (a UV seam, as exported meshes have it):
+    # its border is the outer rectangle alone
+    left, faces, _ = parametric_mesh(lambda u, v: np.stack([u - 1, v - 0.5, 0 * u], axis=-1), 10, 10)
+    right = left + [1.0, 0.0, 0.0]
+    mesh = TriangleMesh(np.vstack([left, right]), np.vstack([faces, faces + len(left)]))
+    border = _border_points(mesh, 0.05)
+    assert len(border) and np.all((np.abs(np.abs(border[:, 0]) - 1) < 1e-9) | (np.abs(np.abs(border[:, 1]) - 0.5)
+                                                                                < 1e-9))
+    assert np.abs(border[:, 0]).max() == pytest.approx(1.0)
 
 
 def test_a_star_is_a_core_ringed_by_alternating_halos_and_strokes_circle_it():
