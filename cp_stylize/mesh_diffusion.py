@@ -32,11 +32,12 @@ gradient or coherence.
   triangle's plane and the coherence ``c = mu1 - mu2``: EED
   ``kappa1 = 1 / (1 + (c / lambda)^2)`` across the edges and 1 along them,
   ``lambda = lambda_rel max c0``; CED ``alpha`` across and
-  ``alpha + (1 - alpha) exp(-B^2 / c^2)`` along, ``B = b_rel max c0``.
+  ``alpha + (1 - alpha) exp(-B^2 / c^2)`` along, ``B = b_rel max c0`` (the
+  band's diffusivities, :func:`cp_stylize.diffusion_tensor._diffusivities`).
 
 The smoothings to times ``sigma`` and ``rho`` are one implicit step of the
 linear filter each (for the structure tensor, of its six components at the
-vertices, then projected back into each triangle's plane).
+vertices, back on the faces, where its part in each triangle's plane is read).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ import dataclasses
 import numpy as np
 import scipy.sparse as sp
 
+from .diffusion_tensor import _diffusivities
 from .parameters import DEFAULTS
 
 __all__ = ["MeshOperators", "mesh_diffuse", "MESH_MODES"]
@@ -73,8 +75,7 @@ def _igl():
 class MeshOperators:
     """The finite element operators of a triangle mesh: ``grad`` (3F, n), the gradient of a piecewise
     linear function on each face (x components of all faces, then y, then z); ``area`` (F,); ``mass``
-    (n,), the lumped mass matrix's diagonal; ``normal`` (F, 3), the faces' unit normals; ``edge``: the
-    mean edge length; ``corners`` (F, 3): the faces' vertex numbers; ``basis`` (F, 3, 3): the gradients
+    (n,), the lumped mass matrix's diagonal; ``edge``: the mean edge length; ``corners`` (F, 3): the faces' vertex numbers; ``basis`` (F, 3, 3): the gradients
     of each face's three hat functions (component, corner), read from ``grad``; ``laplacian``: the
     stiffness of the identity tensor, minus libigl's cotangent matrix; ``tangents`` (F, 2, 3): two unit
     vectors in each face's plane, at right angles."""
@@ -82,7 +83,6 @@ class MeshOperators:
     grad: sp.csr_matrix
     area: np.ndarray
     mass: np.ndarray
-    normal: np.ndarray
     edge: float
     corners: np.ndarray
     basis: np.ndarray
@@ -119,8 +119,8 @@ class MeshOperators:
         first = corners[:, 1] - corners[:, 0]
         first /= np.linalg.norm(first, axis=1, keepdims=True)
         tangents = np.stack([first, np.cross(normal, first)], axis=1)
-        return cls(grad, 0.5 * double, mass, normal, float(edges.mean()), faces, basis.transpose(1, 0, 2),
-                   laplacian, tangents)
+        return cls(grad, 0.5 * double, mass, float(edges.mean()), faces, basis.transpose(1, 0, 2), laplacian,
+                   tangents)
 
     @property
     def faces(self):
@@ -157,15 +157,11 @@ class MeshOperators:
         """``values`` (n, C) smoothed by one implicit step of the linear filter to time ``t``."""
         return values if t <= 0 else self.implicit_step(values, t, self.laplacian)
 
-    def in_plane(self, tensors):
-        """Face tensors (F, 3, 3) projected into their faces' planes: ``P J P`` with ``P = I - n n^T``."""
-        P = np.eye(3)[None] - self.normal[:, :, None] * self.normal[:, None, :]
-        return P @ tensors @ P
-
     def structure(self, values, sigma, rho):
         """The structure tensor (F, 3, 3) of vertex ``values`` (n, C): the faces' gradients of the values
         smoothed to time ``sigma``, their outer products summed over the channels, smoothed to time
-        ``rho`` (its six components at the vertices, area-weighted from the faces), in the faces' planes."""
+        ``rho`` (its six components at the vertices, area-weighted from the faces); only its part in each face's
+        plane counts (:func:`_eigen_in_plane` reads that)."""
         g = self.gradients(self.smoothed(values, sigma))
         J = np.einsum("fic,fjc->fij", g, g)
         if rho > 0:
@@ -175,7 +171,7 @@ class MeshOperators:
             J = np.empty_like(J)
             J[:, upper[0], upper[1]] = smooth
             J[:, upper[1], upper[0]] = smooth
-        return self.in_plane(J)
+        return J
 
     def _to_vertices(self, face_values):
         """Face values (F, k) averaged at the vertices, weighted by the faces' areas."""
@@ -243,8 +239,9 @@ def _eigen_in_plane(ops, J):
 
 
 def _tensor(ops, kappa_across, kappa_along, w):
-    """``kappa_along P + (kappa_across - kappa_along) w w^T`` (F, 3, 3), ``P`` each face's projector."""
-    P = np.eye(3)[None] - ops.normal[:, :, None] * ops.normal[:, None, :]
+    """``kappa_along P + (kappa_across - kappa_along) w w^T`` (F, 3, 3), ``P = t1 t1^T + t2 t2^T`` each face's
+    projector onto its plane."""
+    P = np.einsum("fki,fkj->fij", ops.tangents, ops.tangents)
     return kappa_along[:, None, None] * P + (kappa_across - kappa_along)[:, None, None] * (w[:, :, None] * w[:, None, :])
 
 
@@ -291,14 +288,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
             c = np.maximum(mu1 - mu2, 0.0)
             if scale is None:
                 scale = max(float(c.max()), TINY)
-            if mode == "eed":
-                across = 1.0 / (1.0 + (c / max(p["lambda_rel"] * scale, TINY)) ** 2)
-                along = np.ones_like(c)
-            else:
-                B = p["b_rel"] * scale
-                safe = np.where(c > 0, c, 1.0)
-                across = np.full_like(c, p["alpha"])
-                along = p["alpha"] + (1.0 - p["alpha"]) * np.where(c > 0, np.exp(-((B / safe) ** 2)), 0.0)
+            across, along = _diffusivities(mode, c, p, scale)
             K = ops.stiffness(_tensor(ops, across, along, w))
         u = ops.implicit_step(u, dt, K)
         if progress is not None:
