@@ -1,4 +1,4 @@
-"""Command line: ``python -m cp_stylize {demo,paper,bench,looks,docs} ...`` (from a checkout: the tools live in
+"""Command line: ``python -m cp_stylize {demo,paper,bench,looks,crosscheck,docs} ...`` (from a checkout: the tools live in
 ``cp_stylize_dev``, which the extension does not ship)."""
 
 from __future__ import annotations
@@ -34,6 +34,10 @@ def _looks(args):
     _tool("looks").run(args.out)
 
 
+def _crosscheck(args):
+    _tool("crosscheck").run(quick=args.quick, **({"cases": tuple(args.cases)} if args.cases else {}))
+
+
 def _docs(args):
     _tool("docs").run()
 
@@ -63,6 +67,12 @@ def main(argv=None):
     p = sub.add_parser("looks", help="measure the presets' looks on the photo sphere, Suzanne and a city photograph (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")
     p.set_defaults(func=_looks)
+    p = sub.add_parser("crosscheck", help="filter on the band and on the mesh's own vertices and compare them, "
+                                          "refining both (minutes)")
+    p.add_argument("--quick", action="store_true", help="two coarse refinements (seconds)")
+    p.add_argument("--cases", nargs="+", metavar="CASE", choices=["sphere", "torus", "suzanne"],
+                   help="only these cases (default: all)")
+    p.set_defaults(func=_crosscheck)
     p = sub.add_parser("docs", help="write the user guide's parameter tables (docs/blender.md) from "
                                     "cp_stylize/parameters.py")
     p.set_defaults(func=_docs)

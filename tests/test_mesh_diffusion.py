@@ -8,32 +8,7 @@ import pytest
 pytest.importorskip("igl", reason="the mesh filters need libigl (requirements.txt pins it)")
 
 from cp_stylize.mesh_diffusion import MESH_MODES, STEP_EDGES, MeshOperators, mesh_diffuse  # noqa: E402
-
-
-def icosphere(subdivisions=4):
-    """A unit icosphere: vertices (n, 3), faces (F, 3), its triangles all acute."""
-    t = (1.0 + 5**0.5) / 2.0
-    vertices = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
-                [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
-    faces = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
-             [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11],
-             [6, 2, 10], [8, 6, 7], [9, 8, 1]]
-    vertices = [np.asarray(v, float) / np.linalg.norm(v) for v in vertices]
-    for _ in range(subdivisions):
-        middle, out = {}, []
-
-        def mid(a, b):
-            key = (min(a, b), max(a, b))
-            if key not in middle:
-                m = vertices[a] + vertices[b]
-                vertices.append(m / np.linalg.norm(m))
-                middle[key] = len(vertices) - 1
-            return middle[key]
-        for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            out += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
-        faces = out
-    return np.array(vertices), np.array(faces, dtype=np.int64)
+from cp_stylize_dev.crosscheck import icosphere  # noqa: E402
 
 
 @pytest.fixture(scope="module")
