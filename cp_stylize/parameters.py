@@ -12,6 +12,11 @@ distance between two points of its surface: a sphere of radius 1; paper,
 section 4.5): ``"time"`` is a diffusion time in squared lengths, ``"length"``
 a length, ``"ratio"`` a number relative to the input's own contrast or a
 fraction, ``"count"`` a whole number.
+
+An artist reads lengths and times as sizes on the object: :meth:`Parameter.size`
+gives each as a length (a time ``t`` as the radius ``sqrt(2 t)`` of the Gaussian
+blur it matches), which the add-on shows in the scene's units for the object
+at hand, under :attr:`Parameter.size_label`.
 """
 
 from __future__ import annotations
@@ -37,10 +42,30 @@ class Parameter:
     precision: int = None    # digits the panel shows: by default 2 for a ratio (a share or strength), else 6
     step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
     file: tuple = (None, None)   # a run parameter's place in a preset file: (table or None for the top, key)
+    size_name: str = ""      # a time's label as a size (the blur's radius), where it differs from ``label``
 
     def __post_init__(self):
         if self.precision is None:
             object.__setattr__(self, "precision", 2 if self.unit == "ratio" else 6)
+
+    @property
+    def sized(self):
+        """Whether the parameter is shown as a size: a length, or a time (as its blur's radius)."""
+        return self.unit in ("length", "time")
+
+    @property
+    def size_label(self):
+        return self.size_name or self.label
+
+    def size(self, value):
+        """``value`` as a length (object normalised to a diameter of 2): a length as it is, a time ``t`` as the
+        radius ``sqrt(2 t)`` of the Gaussian blur it matches."""
+        return math.sqrt(2.0 * max(value, 0.0)) if self.unit == "time" else value
+
+    def from_size(self, size):
+        """The value whose :meth:`size` is ``size``, within the limits."""
+        value = 0.5 * max(size, 0.0) ** 2 if self.unit == "time" else size
+        return min(max(value, self.minimum), self.maximum)
 
     def check(self, value):
         """``value`` as a float (an int for a count), or ValueError naming the parameter, its limits and the
@@ -70,7 +95,7 @@ def check_value(name, value, minimum, maximum):
 RUN = {p.name: p for p in (
     Parameter("T", "Time", "Diffusion time T (squared lengths of the object normalised to a diameter of 2): how far the "
                            "filter goes. The blur radius grows like sqrt(2 T)", 1e-6, 0.1, 1.1e-4, "time",
-              file=(None, "T")),
+              file=(None, "T"), size_name="Smoothing"),
     Parameter("spacing", "Grid Spacing", "Grid spacing h of the band for the object normalised to a "
                                          "diameter of 2", 0.002, 0.1, 0.008, "length", precision=4, step=0.1,
               file=(None, "spacing")),
@@ -172,9 +197,9 @@ SEED_LIMITS = (0, 2**31 - 1)
 #: The filter parameters any mode may take (see :func:`cp_stylize.diffuse`).
 FILTER_PARAMETERS = {p.name: p for p in (
     Parameter("sigma", "Pre-smoothing", "Structure tensor pre-smoothing time sigma (the noise scale the "
-                                        "filter ignores)", 0.0, 0.01, 1e-4, "time"),
+                                        "filter ignores)", 0.0, 0.01, 1e-4, "time", size_name="Noise Size"),
     Parameter("rho", "Integration", "Structure tensor integration time rho (the size of the neighbourhood "
-                                    "whose orientation the strokes follow)", 0.0, 0.05, 5e-4, "time"),
+                                    "whose orientation the strokes follow)", 0.0, 0.05, 5e-4, "time", size_name="Flow Size"),
     Parameter("alpha", "Alpha", "CED: smallest diffusivity, across the flow. Flow: diffusivity along the "
                                 "direction field (0 to 1)", 0.0, 1.0, 1e-3, precision=4, step=0.01),
     Parameter("b_rel", "Threshold", "CED's coherence threshold B, relative to the largest coherence of "

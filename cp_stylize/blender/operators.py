@@ -39,6 +39,23 @@ def estimate(obj, settings, depsgraph=None):
     return guess.spacing, guess.band_points, guess.bytes, guess.seconds
 
 
+def hides_textures(context):
+    """Whether the context's 3D viewport is shaded so that it shows no textures (Solid shading by material or
+    object colour, Wireframe); False without a 3D viewport."""
+    space = getattr(context, "space_data", None) if context is not None else None
+    shading = getattr(space, "shading", None) if getattr(space, "type", None) == "VIEW_3D" else None
+    return shading is not None and shading.type not in ("MATERIAL", "RENDERED") and not (
+        shading.type == "SOLID" and shading.color_type == "TEXTURE")
+
+
+def _how_to_see(context):
+    """What the report adds where the 3D viewport the run was started from shows no textures: how to see
+    the result ("" where it does, or without a viewport)."""
+    if not hides_textures(context):
+        return ""
+    return "; the viewport's Solid shading does not show it: switch to Material Preview (Z), or press Show in Material Preview under Stylize"
+
+
 def machine_speed():
     """The estimate's time factor for this computer (:func:`cp_stylize.calibration.machine_speed`).
 
@@ -131,7 +148,7 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         settings = settings.replace(image_size=int(panel.image_size))
         return stylize.prepare(context.active_object, settings, panel.output())
 
-    def _finish(self, job):
+    def _finish(self, job, context=None):
         from . import results, writing
 
         applied = writing.apply(job)
@@ -142,7 +159,7 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
                     f"stylized {job.object_name!r} into {applied.image!r}{where}"
                     f"{f', its relief in {applied.relief!r}' if applied.relief else ''} in {result.seconds:.1f} s "
                     f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})"
-                    f"{results.kept_note(applied.kept)}")
+                    f"{results.kept_note(applied.kept)}{_how_to_see(context)}")
         return {"FINISHED"}
 
     def execute(self, context):
@@ -151,7 +168,7 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         def work():
             job = self._prepare(context)
             stylize.run_core(job, log=print if bpy.app.background else None)
-            return self._finish(job)
+            return self._finish(job, context)
         return guarded(self, work)
 
     # -- interactive: a worker thread, progress and Esc ---------------------------------------
@@ -203,7 +220,7 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         def finish():
             if run.error is not None:
                 raise run.error
-            return self._finish(self._job)
+            return self._finish(self._job, context)
         return guarded(self, finish)
 
     def cancel(self, context):

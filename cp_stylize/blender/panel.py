@@ -4,7 +4,7 @@ import bpy
 
 from ..parameters import DIRECTED_MODES, FILTERS
 from . import operators
-from .properties import filter_property
+from .properties import SIZE_VIEWS, filter_property, object_scale, size_property
 
 _estimate_cache = {}
 
@@ -91,7 +91,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
                     layout.prop(settings, "direction_attribute")
         layout.prop(settings, "quality")
         if settings.quality == "CUSTOM":
-            layout.prop(settings, "spacing")
+            _prop(layout, settings, "spacing")
         box = layout.box()
         if obj is not None and obj.type == "MESH":
             for line in _estimate_text(obj, settings):
@@ -99,22 +99,29 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         else:
             box.label(text="Select a mesh object", icon="INFO")
 
-        col = layout.column(heading="Filter")
-        col.prop(settings, "time")
-        for parameter in FILTERS[settings.mode].parameters:
-            col.prop(settings, filter_property(settings.mode, parameter.name))
+        _prop(layout, settings, "time")
         layout.prop(settings, "detail")
+        if object_scale() is None:
+            layout.label(text="Sizes for an object 2 units across", icon="INFO")
+
+
+def _prop(layout, settings, name, text=None):
+    """The property ``name``, as a size in the scene's units for the active object where it is a length or
+    a time (:mod:`cp_stylize.blender.properties`), else as it is."""
+    view = size_property(name)
+    shown = view if view in SIZE_VIEWS and object_scale() is not None else name
+    layout.prop(settings, shown, **({} if text is None else {"text": text}))
 
 
 def _switched(layout, settings, switch, props, text=None):
     """``switch`` (a strength or size, 0: off) and under it the ``props`` it governs, greyed while it is 0;
     each of ``props`` is a property's name or ``(name, label)``."""
-    layout.prop(settings, switch, **({} if text is None else {"text": text}))
+    _prop(layout, settings, switch, text)
     col = layout.column()
     col.active = getattr(settings, switch) > 0
     for prop in props:
         name, label = (prop, None) if isinstance(prop, str) else prop
-        col.prop(settings, name, **({} if label is None else {"text": label}))
+        _prop(col, settings, name, label)
 
 
 class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
@@ -191,6 +198,8 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "keep")
         layout.separator()
         layout.operator("object.cp_stylize", icon="BRUSH_DATA")
+        if operators.hides_textures(context):        # a result would not show: offer the view that shows it
+            layout.operator("view3d.toggle_shading", text="Show in Material Preview", icon="MATERIAL").type = "MATERIAL"
         layout.operator("object.cp_stylize_estimate", icon="INFO")
         held = operators.kept_bytes()
         if held:
@@ -199,6 +208,21 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
             row.operator("cp_stylize.release", text="", icon="TRASH")
 
 
+class VIEW3D_PT_cp_stylize_advanced(_Sidebar, bpy.types.Panel):
+    """The filter's own parameters, as the methods name them: the diffusion time and the mode's parameters."""
+    bl_label = "Advanced"
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        settings = context.scene.cp_stylize
+        layout = _split(self.layout)
+        col = layout.column(heading="Filter")
+        col.prop(settings, "time")
+        for parameter in FILTERS[settings.mode].parameters:
+            _prop(col, settings, filter_property(settings.mode, parameter.name))
+
+
 classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
            VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_palette,
-           VIEW3D_PT_cp_stylize_output)
+           VIEW3D_PT_cp_stylize_output, VIEW3D_PT_cp_stylize_advanced)

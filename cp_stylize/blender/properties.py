@@ -7,6 +7,14 @@ descriptions come from :mod:`cp_stylize.parameters`, the core's one table.
 Each mode keeps its own filter parameters (``ced_rho``, ``eed_rho``, ...), so
 switching modes never carries one filter's values into another;
 ``settings.rho`` and the like read and set the current mode's.
+
+The panel shows lengths and times as sizes in the scene's units, for the
+active object: each has a view, ``<property>_size`` (``time_size``,
+``stroke_width_size``, ``eed_sigma_size``), that reads and sets the stored
+relative value through the object's size (:func:`object_scale`) and
+:meth:`cp_stylize.parameters.Parameter.size` (a time as the radius of the blur
+it matches).  The stored values stay relative, so a preset looks the same on
+any object; the views hold nothing of their own.
 :meth:`CPStylizeSettings.to_settings` is the one place where the properties
 become the core's frozen StylizeSettings, :meth:`~CPStylizeSettings.output`
 the one place for what to do with the result.
@@ -50,6 +58,49 @@ def _current(name):
             raise AttributeError(f"mode {self.mode!r} has no parameter {name!r}")
         setattr(self, filter_property(self.mode, name), value)
     return property(get, set, doc=f"{FILTER_PARAMETERS[name].label} of the current mode")
+
+
+_scales = {}
+
+
+def object_scale(obj=None):
+    """Half the surface's diameter in world units (what a relative length of 1 is on the object) for ``obj``,
+    by default the active object; None without a mesh object, or for one whose surface the core cannot
+    read.  Kept for the object as it is (its name, size and counts), since the panel asks at every redraw."""
+    obj = obj if obj is not None else getattr(bpy.context, "active_object", None)
+    if obj is None or obj.type != "MESH":
+        return None
+    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), len(obj.data.vertices), len(obj.data.polygons))
+    if key not in _scales:
+        from ..pipeline import normalisation
+        from . import meshdata
+
+        try:
+            mesh = meshdata.read(obj, None, corners=False)
+            scale = 1.0 / normalisation(mesh.vertices, mesh.triangles)[1]
+        except ValueError:          # StylizeError too: the panel says why elsewhere
+            scale = None
+        _scales.clear()
+        _scales[key] = scale
+    return _scales[key]
+
+
+def size_property(name):
+    """The size view of the property ``name`` (a length or time)."""
+    return f"{name}_size"
+
+
+def _size_view(name, parameter):
+    """The size view of property ``name`` holding ``parameter``: in the scene's units for the active object
+    (an object 2 units across without one)."""
+    def get(self):
+        return parameter.size(getattr(self, name)) * (object_scale() or 1.0)
+
+    def set(self, size):
+        setattr(self, name, parameter.from_size(size / (object_scale() or 1.0)))
+    return bpy.props.FloatProperty(
+        name=parameter.size_label, description=f"{parameter.description}. Shown as a size on the active object",
+        subtype="DISTANCE", unit="LENGTH", precision=3, step=1, min=0.0, get=get, set=set)
 
 
 def _mode_changed(self, context):
@@ -201,7 +252,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     def _filter_state(self):
         """Every property a preset sets, and the palette, as plain values."""
         values = {name: getattr(self, name) for name in self.bl_rna.properties.keys()
-                  if name not in _OUTPUT and name != "rna_type" and name != "palette"}
+                  if name not in _OUTPUT and name not in SIZE_VIEWS and name != "rna_type" and name != "palette"}
         values = {name: tuple(v) if hasattr(v, "__len__") and not isinstance(v, str) else v
                   for name, v in values.items()}
         return values, [(tuple(p.colour), p.weight) for p in self.palette]
@@ -237,5 +288,18 @@ for _mode, _filter in FILTERS.items():
             _parameter, default=_filter.defaults[_parameter.name])
 for _name in FILTER_PARAMETERS:
     setattr(CPStylizeSettings, _name, _current(_name))
+#: The size views (names) of the lengths and times.
+SIZE_VIEWS = set()
+for _parameter in RUN.values():
+    if _parameter.sized:
+        _name = PROPERTY_NAMES.get(_parameter.name, _parameter.name)
+        SIZE_VIEWS.add(size_property(_name))
+        CPStylizeSettings.__annotations__[size_property(_name)] = _size_view(_name, _parameter)
+for _mode, _filter in FILTERS.items():
+    for _parameter in _filter.parameters:
+        if _parameter.sized:
+            _name = filter_property(_mode, _parameter.name)
+            SIZE_VIEWS.add(size_property(_name))
+            CPStylizeSettings.__annotations__[size_property(_name)] = _size_view(_name, _parameter)
 
 classes = (CPStylizePaletteColour, CPStylizeSettings)

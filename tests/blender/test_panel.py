@@ -59,10 +59,12 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     registered.palette.add()
     context = bpy.context
     log = []
-    for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_paint, panel.VIEW3D_PT_cp_stylize_palette,
-                panel.VIEW3D_PT_cp_stylize_output, panel.CP_STYLIZE_MT_presets):
+    for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_paint, panel.VIEW3D_PT_cp_stylize_oil,
+                panel.VIEW3D_PT_cp_stylize_toon, panel.VIEW3D_PT_cp_stylize_palette, panel.VIEW3D_PT_cp_stylize_output,
+                panel.VIEW3D_PT_cp_stylize_advanced, panel.CP_STYLIZE_MT_presets):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
-    props = {name.removeprefix(mode + "_") for kind, name in log if kind == "prop"}  # the mode's own parameters
+    # the mode's own parameters, and the size views of lengths and times by the name of what they show
+    props = {name.removeprefix(mode + "_").removesuffix("_size") for kind, name in log if kind == "prop"}
     assert {"mode", "quality", "time", "strokes", "stroke_width", "stroke_layers", "stroke_jitter", "swirl", "relief",
             "contours", "noise_mapping"} <= props
     assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode in ("ced", "flow"))
@@ -154,6 +156,54 @@ def test_the_properties_take_their_limits_from_the_parameter_table(registered):
     assert [item.identifier for item in rna["mode"].enum_items] == list(FILTERS)
 
 
+def test_lengths_and_times_show_as_sizes_in_the_scene_units_of_the_active_object(registered):
+    from cp_stylize.blender.properties import SIZE_VIEWS
+
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=5.0)       # its surface's diameter: 10, poles apart
+    obj = bpy.context.active_object
+    registered.stroke_width, registered.time, registered.eed_rho = 0.03, 2e-4, 8e-4
+    assert registered.stroke_width_size == pytest.approx(0.15, rel=1e-4)
+    assert registered.time_size == pytest.approx(5.0 * (2 * 2e-4) ** 0.5, rel=1e-4)   # the blur's radius
+    assert registered.eed_rho_size == pytest.approx(5.0 * (2 * 8e-4) ** 0.5, rel=1e-4)
+    registered.stroke_width_size, registered.time_size = 0.5, 0.05      # set in the scene's units
+    assert registered.stroke_width == pytest.approx(0.1, rel=1e-4)
+    assert registered.time == pytest.approx(0.5 * 0.01**2, rel=1e-3)
+    registered.stroke_width_size = 1e6                                   # held to the table's limits
+    assert registered.stroke_width == pytest.approx(0.2)
+    registered.stroke_width = 0.03
+    stored = registered.to_settings()
+    obj.scale = (2.0, 2.0, 2.0)                  # the object doubles: its sizes do, the stored values not
+    bpy.context.view_layer.update()
+    assert registered.stroke_width_size == pytest.approx(0.3, rel=1e-4)
+    assert registered.to_settings() == stored
+    bpy.context.view_layer.objects.active = None  # no object: sizes for one 2 units across
+    assert registered.stroke_width_size == pytest.approx(0.03, rel=1e-4)
+    # every length and time has its view, and nothing else
+    from cp_stylize.parameters import FILTERS, RUN
+    sized = {p.name for p in RUN.values() if p.sized} | {f"{m}_{p.name}" for m, f in FILTERS.items()
+                                                          for p in f.parameters if p.sized}
+    assert SIZE_VIEWS == {f"{'time' if n == 'T' else n}_size" for n in sized}
+
+
+def test_the_main_panel_shows_sizes_and_the_advanced_one_the_filters_own_parameters(registered):
+    from cp_stylize.blender import panel
+
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    registered.mode = "ced"
+    main, advanced = [], []
+    panel.VIEW3D_PT_cp_stylize.draw(types.SimpleNamespace(layout=FakeLayout(main)), bpy.context)
+    panel.VIEW3D_PT_cp_stylize_advanced.draw(types.SimpleNamespace(layout=FakeLayout(advanced)), bpy.context)
+    main = {name for kind, name in main if kind == "prop"}
+    advanced = {name for kind, name in advanced if kind == "prop"}
+    assert "time_size" in main and "time" not in main and not any(n.startswith("ced_") for n in main)
+    assert {"time", "ced_sigma_size", "ced_rho_size", "ced_alpha", "ced_b_rel"} <= advanced
+    assert panel.VIEW3D_PT_cp_stylize_advanced.bl_options == {"DEFAULT_CLOSED"}
+    # no field shows more than four decimals but the raw time, which only the Advanced panel shows
+    rna = registered.bl_rna.properties
+    wide = {name for name in main if rna[name].type == "FLOAT" and rna[name].precision > 4}
+    assert not wide, wide
+
+
 def test_each_mode_keeps_its_own_parameters(registered):
     registered.mode = "eed"
     registered.lambda_rel = 2e-3
@@ -165,3 +215,25 @@ def test_each_mode_keeps_its_own_parameters(registered):
     registered.mode = "gaussian"
     with pytest.raises(AttributeError, match="mode 'gaussian' has no parameter 'rho'"):
         registered.rho
+
+
+def _viewport(shading, colour="MATERIAL"):
+    return types.SimpleNamespace(scene=bpy.context.scene, space_data=types.SimpleNamespace(
+        type="VIEW_3D", shading=types.SimpleNamespace(type=shading, color_type=colour)))
+
+
+def test_where_the_viewport_shows_no_textures_the_panel_and_the_report_say_how_to_see_the_result(registered):
+    from cp_stylize.blender import operators, panel
+
+    for shading, colour in (("SOLID", "MATERIAL"), ("SOLID", "OBJECT"), ("WIREFRAME", "MATERIAL")):
+        assert operators.hides_textures(_viewport(shading, colour)), (shading, colour)
+        assert "switch to Material Preview (Z)" in operators._how_to_see(_viewport(shading, colour))
+    for shading, colour in (("MATERIAL", "MATERIAL"), ("RENDERED", "MATERIAL"), ("SOLID", "TEXTURE")):
+        assert not operators.hides_textures(_viewport(shading, colour)), (shading, colour)
+        assert operators._how_to_see(_viewport(shading, colour)) == ""
+    assert not operators.hides_textures(None)           # a script or blender -b: no viewport, nothing to add
+    assert not operators.hides_textures(types.SimpleNamespace(space_data=None))
+    for shading, shown in (("SOLID", True), ("MATERIAL", False)):
+        log = []
+        panel.VIEW3D_PT_cp_stylize_output.draw(types.SimpleNamespace(layout=FakeLayout(log)), _viewport(shading))
+        assert (("operator", "view3d.toggle_shading") in log) == shown

@@ -204,6 +204,26 @@ def scenario_panel():
                      "line_width": settings.line_width}
     for cls in aside:
         bpy.utils.register_class(cls)
+    # the Advanced sub-panel opened, with the others out of the way: the filter's own parameters
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="denoise_eed")
+    aside = [panels.VIEW3D_PT_cp_stylize_paint, panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon,
+             panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
+    for cls in aside:
+        bpy.utils.unregister_class(cls)
+    # the sub-panel stays closed once drawn closed: the same panel under a name of its own starts open
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_advanced)
+    shown = type("VIEW3D_PT_cp_stylize_advanced_shown", (panels.VIEW3D_PT_cp_stylize_advanced,),
+                 {"bl_idname": "VIEW3D_PT_cp_stylize_advanced_shown", "bl_options": set()})
+    bpy.utils.register_class(shown)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_advanced", sidebar)
+    bpy.utils.unregister_class(shown)
+    bpy.utils.register_class(panels.VIEW3D_PT_cp_stylize_advanced)
+    facts["sizes"] = {"time_size": settings.time_size, "time": settings.time,
+                      "radius": bpy.context.active_object.dimensions[0] / 2}
+    for cls in aside:
+        bpy.utils.register_class(cls)
 
 
 def scenario_undo():
@@ -221,6 +241,10 @@ def scenario_undo():
     yield 0.5
     facts["after_redo"] = differences(done, snapshot())
     facts["reports"] = reports()
+    facts["shading"] = view3d()[1].spaces.active.shading.type
+    in_view3d(bpy.ops.view3d.toggle_shading, type="MATERIAL")     # what Show in Material Preview does
+    yield 3.0
+    screenshot("finished_material_preview")
 
 
 def scenario_rerun():

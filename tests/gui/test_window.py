@@ -87,6 +87,9 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert os.path.getsize(facts["screenshots"]["panel_oil_toon_crop"]) > 10_000
     assert os.path.getsize(facts["screenshots"]["panel_toon_crop"]) > 10_000
     assert facts["toon"] == {"toon_levels": 4, "toon_outlines": 1.0, "line_width": pytest.approx(0.004)}
+    assert os.path.getsize(facts["screenshots"]["panel_advanced_crop"]) > 10_000
+    sizes = facts["sizes"]      # Smoothing: the blur's radius, in the scene's units on the ball
+    assert sizes["time_size"] == pytest.approx((2 * sizes["time"]) ** 0.5 * sizes["radius"], rel=0.02)
 
 
 def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(screenshots, extension_zip, tmp_path):
@@ -99,6 +102,7 @@ def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(scr
     assert facts["after_undo"] == []   # undo: exactly the state before the run
     assert facts["after_redo"] == []   # redo: exactly the stylized state
     assert messages(facts)[-1].startswith("stylized 'Ball' into 'Ball_stylized' in ")
+    assert facts["shading"] == "SOLID" and "switch to Material Preview (Z)" in messages(facts)[-1]
 
 
 def test_a_second_run_reuses_the_band_and_the_panel_can_free_it(screenshots, extension_zip, tmp_path):
