@@ -62,7 +62,7 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="coarse grids, for a smoke run (under a minute)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON to FILE")
     p.add_argument("--cases", nargs="+", metavar="CASE",
-                   help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs (default: all)")
+                   help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs, mesh (default: all)")
     p.set_defaults(func=_bench)
     p = sub.add_parser("looks", help="measure the presets' looks on the photo sphere, Suzanne and a city photograph (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")

@@ -57,8 +57,11 @@ MESH_MODES = ("gaussian", "perona_malik", "eed", "ced")
 #: The default time step, in squared mean edge lengths (the steps are stable at any size; this keeps the
 #: nonlinear filters' lag behind their values small).
 STEP_EDGES = 2.0
-#: The conjugate gradient solves stop at this relative residual.
+#: The conjugate gradient solves stop at this relative residual ...
 RTOL = 1e-10
+#: ... and those of the structure tensor's smoothings at this one: they only set the directions and
+#: strengths the filter follows, which a residual this small does not move visibly.
+TENSOR_RTOL = 1e-5
 TINY = 1e-30
 
 
@@ -147,27 +150,33 @@ class MeshOperators:
         cols = np.tile(self.corners, (1, 3)).ravel()
         return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n))
 
-    def implicit_step(self, values, tau, K):
+    def implicit_step(self, values, tau, K, rtol=RTOL):
         """``u`` with ``(M + tau K) u = M values`` (n, C), by conjugate gradients preconditioned with the
-        diagonal, from ``values``: all channels at once (:func:`_block_cg`)."""
+        diagonal, from ``values``: all channels at once (:func:`_block_cg`), to a relative residual ``rtol``."""
         A = (sp.diags(self.mass) + tau * K).tocsr()
-        return _block_cg(A, self.mass[:, None] * values, values)
+        return _block_cg(A, self.mass[:, None] * values, values, rtol)
 
-    def smoothed(self, values, t):
+    def smoothed(self, values, t, rtol=RTOL):
         """``values`` (n, C) smoothed by one implicit step of the linear filter to time ``t``."""
-        return values if t <= 0 else self.implicit_step(values, t, self.laplacian)
+        return values if t <= 0 else self.implicit_step(values, t, self.laplacian, rtol)
+
+    def centred(self, values):
+        """``values`` (n, C) less their area-weighted means: the same gradients, and solves that do not
+        depend on a shift of the grey levels (the loose solves of the structure tensor start from and stop
+        near the same values whatever the shift)."""
+        return values - (self.mass @ values) / self.mass.sum()
 
     def structure(self, values, sigma, rho):
         """The structure tensor (F, 3, 3) of vertex ``values`` (n, C): the faces' gradients of the values
         smoothed to time ``sigma``, their outer products summed over the channels, smoothed to time
         ``rho`` (its six components at the vertices, area-weighted from the faces); only its part in each face's
         plane counts (:func:`_eigen_in_plane` reads that)."""
-        g = self.gradients(self.smoothed(values, sigma))
+        g = self.gradients(self.smoothed(self.centred(values), sigma, TENSOR_RTOL))
         J = np.einsum("fic,fjc->fij", g, g)
         if rho > 0:
             upper = np.triu_indices(3)
             spread = self._to_vertices(J[:, upper[0], upper[1]])
-            smooth = self._to_faces(self.smoothed(spread, rho))
+            smooth = self._to_faces(self.smoothed(spread, rho, TENSOR_RTOL))
             J = np.empty_like(J)
             J[:, upper[0], upper[1]] = smooth
             J[:, upper[1], upper[0]] = smooth
@@ -187,10 +196,10 @@ class MeshOperators:
         return vertex_values[self.corners].mean(axis=1)
 
 
-def _block_cg(A, B, X):
+def _block_cg(A, B, X, rtol=RTOL):
     """``A^-1 B`` (n, C) for a symmetric positive definite CSR ``A``: the columns' conjugate gradients, each
     with its own step lengths, preconditioned with ``A``'s diagonal, from ``X``, run side by side (one
-    sparse product a step for all of them), each stopped at a relative residual of :data:`RTOL`; a
+    sparse product a step for all of them), each stopped at a relative residual of ``rtol``; a
     FloatingPointError if they do not get there in ten times as many steps as ``A`` has rows."""
     inverse = 1.0 / A.diagonal()[:, None]
     X = np.array(X, dtype=np.float64)
@@ -200,10 +209,10 @@ def _block_cg(A, B, X):
     rz = np.einsum("ij,ij->j", R, Z)
     size = np.linalg.norm(B, axis=0)
     # a column a hundred million times smaller than the largest (a tensor component that is all but 0)
-    # is solved as far as the largest's round-off allows
-    goal = RTOL * np.maximum(size, 1e-8 * size.max(initial=0.0) + TINY)
+    # is solved as far as the largest's round-off allows; squared, as the residuals' norms are
+    goal = (rtol * np.maximum(size, 1e-8 * size.max(initial=0.0) + TINY)) ** 2
     for _ in range(10 * len(B)):
-        going = np.linalg.norm(R, axis=0) > goal
+        going = np.einsum("ij,ij->j", R, R) > goal
         if not going.any():
             return X
         AP = A @ P
@@ -278,7 +287,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
     for step in range(steps):
         if mode == "perona_malik":
             if scale is None:
-                smooth = ops.gradients(ops.smoothed(u, p["sigma"]))
+                smooth = ops.gradients(ops.smoothed(ops.centred(u), p["sigma"], TENSOR_RTOL))
                 scale = float(np.sqrt(np.max(np.sum(smooth**2, axis=(1, 2)))))
             lam2 = max((p["lambda_rel"] * scale) ** 2, TINY)
             g = ops.gradients(u)
