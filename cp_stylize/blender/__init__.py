@@ -28,6 +28,7 @@ def unregister():
     if _release_on_load in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_release_on_load)
     operators.release_kept()
+    panel.release_previews()
     del bpy.types.Scene.cp_stylize
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)

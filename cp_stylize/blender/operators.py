@@ -152,6 +152,8 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         from . import results, writing
 
         applied = writing.apply(job)
+        global _last_image
+        _last_image = applied.image
         result = job.result
         where = f", saved as {os.path.basename(applied.path)}" if applied.path else ""
         reused = ", the last run's band reused" if "band" in job.reused else ""
@@ -304,6 +306,54 @@ class CP_STYLIZE_OT_preset_load(bpy.types.Operator):
         return guarded(self, work)
 
 
+#: The name of the image the last run in this session made: a preset saved after it takes its picture.
+_last_image = None
+#: A user preset's picture is at most this many pixels across (the shipped ones' size, tools/thumbnails.py).
+THUMBNAIL_SIZE = 160
+
+
+def save_thumbnail(preset_path, image):
+    """Write ``image`` (the last run's result), made small, as the picture of the user preset file
+    ``preset_path`` (the PNG next to it), or remove an older picture of that preset where there is no image;
+    returns what the report adds ("" when all went well)."""
+    from . import images
+    from .panel import thumbnail_path
+
+    path = thumbnail_path(preset_path)
+    if image is None:
+        return remove_thumbnail(preset_path)
+    try:
+        pixels = images.image_to_array(image)[..., :3]
+        step = max(1, -(-max(pixels.shape[:2]) // THUMBNAIL_SIZE))         # at most THUMBNAIL_SIZE across
+        h, w = (n // step * step for n in pixels.shape[:2])
+        small = pixels[:h, :w].reshape(h // step, step, w // step, step, 3).mean(axis=(1, 3))
+        temporary = images.array_to_image("cp_stylize_thumbnail", small)
+        try:
+            partial = path + ".part"
+            images.write_file(temporary, partial, "PNG")
+            os.replace(partial, path)
+        finally:
+            bpy.data.images.remove(temporary)
+    except (OSError, RuntimeError, ValueError) as err:
+        return f" (without a picture: {err})"
+    return f", with a picture of {image.name!r}"
+
+
+def remove_thumbnail(preset_path):
+    """Remove the picture of the user preset file ``preset_path``, if it has one; returns what the report adds
+    ("" when all went well)."""
+    from .panel import thumbnail_path
+
+    path = thumbnail_path(preset_path)
+    try:
+        os.remove(path)
+    except FileNotFoundError:
+        pass
+    except OSError as err:
+        return f" (its picture {path!r} stays: {err.strerror or err})"
+    return ""
+
+
 class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
     """Save the panel's settings as a user preset (never over another preset)"""
 
@@ -325,7 +375,9 @@ class CP_STYLIZE_OT_preset_add(bpy.types.Operator):
             settings = panel.to_settings().replace(description="user preset")
             key, path, replaced = save_user_preset(settings, user_preset_dir(create=True), self.name)
             panel.preset_name, panel.preset_key = self.name.strip(), key
-            self.report({"INFO"}, f"{'replaced' if replaced else 'saved'} the preset {self.name.strip()!r} in {path}")
+            picture = save_thumbnail(path, bpy.data.images.get(_last_image) if _last_image else None)
+            self.report({"INFO"}, f"{'replaced' if replaced else 'saved'} the preset {self.name.strip()!r} in {path}"
+                                  f"{picture}")
             return {"FINISHED"}
         return guarded(self, work)
 
@@ -344,7 +396,8 @@ class CP_STYLIZE_OT_preset_remove(bpy.types.Operator):
 
         def work():
             path = remove_user_preset(self.name, user_preset_dir())
-            self.report({"INFO"}, f"removed the preset {self.name!r} ({path})")
+            picture = remove_thumbnail(path)
+            self.report({"INFO"}, f"removed the preset {self.name!r} ({path}){picture}")
             return {"FINISHED"}
         return guarded(self, work)
 

@@ -1,5 +1,7 @@
 """The sidebar panel: View3D > Sidebar > Stylize."""
 
+import os
+
 import bpy
 
 from ..parameters import DIRECTED_MODES, FILTERS
@@ -39,16 +41,74 @@ def _estimate_text(obj, settings):
     return _estimate_cache[key]
 
 
-class CP_STYLIZE_MT_presets(bpy.types.Menu):
-    bl_idname = "CP_STYLIZE_MT_presets"
+class VIEW3D_PT_cp_stylize_presets(bpy.types.Panel):
+    """The preset picker: a picture of each preset over its name (a popover of the Stylize panel)."""
+    bl_idname = "VIEW3D_PT_cp_stylize_presets"
     bl_label = "Presets"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "HEADER"
+    bl_ui_units_x = 22
 
     def draw(self, context):
-        from ..presets import preset_menu
+        from ..presets import preset_menu, preset_paths
 
-        layout = self.layout
-        for key, label in preset_menu(operators.user_folders()):
-            layout.operator("cp_stylize.preset_load", text=label).name = key
+        folders = operators.user_folders()
+        paths = preset_paths(folders)
+        grid = self.layout.grid_flow(row_major=True, columns=MENU_COLUMNS, even_columns=True, even_rows=True)
+        for key, label in preset_menu(folders):
+            col = grid.column(align=True)
+            icon = preset_icon(paths[key])
+            if icon:
+                col.template_icon(icon_value=icon, scale=THUMBNAIL_SCALE)
+            col.operator("cp_stylize.preset_load", text=label).name = key
+
+
+#: The preset picker's columns, and its pictures' size in multiples of a line's height.
+MENU_COLUMNS = 3
+THUMBNAIL_SCALE = 6.0
+_previews = None
+
+
+def thumbnail_path(preset_path):
+    """The picture of the preset file ``preset_path``: the PNG next to it with its name."""
+    return os.path.splitext(preset_path)[0] + ".png"
+
+
+def preset_preview(preset_path):
+    """The preview (Blender's ``bpy.utils.previews``) of the preset file ``preset_path``, from its
+    :func:`thumbnail_path`; None where it has none.  The pictures load when the menu is first drawn, not when
+    the add-on is enabled, and again when a file changes."""
+    global _previews
+    path = thumbnail_path(preset_path)
+    try:
+        stamp = os.path.getmtime(path)
+    except OSError:
+        return None
+    if _previews is None:
+        import bpy.utils.previews
+
+        _previews = bpy.utils.previews.new()
+    name = f"{path}@{stamp}"
+    if name not in _previews:
+        _previews.load(name, path, "IMAGE")
+    return _previews[name]
+
+
+def preset_icon(preset_path):
+    """The icon of the preset file's picture (:func:`preset_preview`); 0 where it has none, or where Blender
+    draws no icons (``blender -b``)."""
+    preview = preset_preview(preset_path)
+    return 0 if preview is None else preview.icon_id
+
+
+def release_previews():
+    """Free the preview icons (when the add-on is disabled)."""
+    global _previews
+    if _previews is not None:
+        import bpy.utils.previews
+
+        bpy.utils.previews.remove(_previews)
+        _previews = None
 
 
 def _split(layout):
@@ -72,7 +132,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         settings = context.scene.cp_stylize
         layout = self.layout
         row = layout.row(align=True)
-        row.menu("CP_STYLIZE_MT_presets", text=settings.preset_name or "Presets")
+        row.popover("VIEW3D_PT_cp_stylize_presets", text=settings.preset_name or "Presets")
         row.operator("cp_stylize.preset_add", text="", icon="ADD")
         remove = row.operator("cp_stylize.preset_remove", text="", icon="REMOVE")
         remove.name = settings.preset_key
@@ -223,6 +283,6 @@ class VIEW3D_PT_cp_stylize_advanced(_Sidebar, bpy.types.Panel):
             _prop(col, settings, filter_property(settings.mode, parameter.name))
 
 
-classes = (CP_STYLIZE_MT_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
+classes = (VIEW3D_PT_cp_stylize_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
            VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output, VIEW3D_PT_cp_stylize_advanced)

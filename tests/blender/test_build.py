@@ -74,6 +74,7 @@ def test_the_zip_holds_only_the_add_on_and_the_core(linux_zip):
     core = {os.path.relpath(os.path.join(folder, f), ROOT).replace(os.sep, "/")
             for folder, dirs, files in os.walk(os.path.join(ROOT, "cp_stylize")) for f in files if f.endswith(".py")}
     presets = {f"presets/{f}" for f in os.listdir(os.path.join(ROOT, "presets")) if f.endswith(".toml")}
+    presets |= {name[:-len(".toml")] + ".png" for name in presets}          # each preset's picture
     product = {"blender_manifest.toml", "__init__.py"} | (core - {"cp_stylize/__main__.py"}) | presets
     assert names == product, (sorted(names - product), sorted(product - names))
     assert not any(n.startswith(("cp_stylize_dev/", "tests/", "tools/")) for n in names)

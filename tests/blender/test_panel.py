@@ -2,6 +2,8 @@
 
 import types
 
+import numpy as np
+
 import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
@@ -21,7 +23,11 @@ class FakeLayout:
     def _child(self, *args, **kwargs):
         return FakeLayout(self.log)
 
-    row = column = box = _child
+    row = column = box = grid_flow = _child
+
+    def template_icon(self, icon_value=0, **kwargs):
+        assert icon_value > 0
+        self.log.append(("icon", icon_value))
 
     def prop(self, data, name, **kwargs):
         assert name in data.bl_rna.properties, f"no property {name!r} on {data!r}"
@@ -39,9 +45,9 @@ class FakeLayout:
         self.log.append(("operator", idname))
         return types.SimpleNamespace()
 
-    def menu(self, idname, **kwargs):
-        assert hasattr(bpy.types, idname), idname
-        self.log.append(("menu", idname))
+    def popover(self, panel, **kwargs):
+        assert hasattr(bpy.types, panel), panel
+        self.log.append(("popover", panel))
 
     def label(self, text="", **kwargs):
         self.log.append(("label", text))
@@ -61,7 +67,7 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     log = []
     for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_paint, panel.VIEW3D_PT_cp_stylize_oil,
                 panel.VIEW3D_PT_cp_stylize_toon, panel.VIEW3D_PT_cp_stylize_palette, panel.VIEW3D_PT_cp_stylize_output,
-                panel.VIEW3D_PT_cp_stylize_advanced, panel.CP_STYLIZE_MT_presets):
+                panel.VIEW3D_PT_cp_stylize_advanced, panel.VIEW3D_PT_cp_stylize_presets):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
     # the mode's own parameters, and the size views of lengths and times by the name of what they show
     props = {name.removeprefix(mode + "_").removesuffix("_size") for kind, name in log if kind == "prop"}
@@ -139,6 +145,42 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
         bpy.ops.cp_stylize.preset_remove(name="starry_night")
     assert bpy.ops.cp_stylize.preset_remove(name="my_look") == {"FINISHED"}
     assert not (tmp_path / "my_look.toml").exists()
+
+
+def _png_size(path):
+    with open(path, "rb") as fh:
+        head = fh.read(24)
+    assert head[:8] == b"\x89PNG\r\n\x1a\n", path
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+def test_the_preset_menu_shows_a_picture_of_each_preset_and_a_saved_preset_takes_its_runs(registered, tmp_path,
+                                                                                          monkeypatch):
+    from cp_stylize.blender import images, operators, panel
+    from cp_stylize.presets import builtin_presets
+
+    for key, path in builtin_presets().items():       # the shipped pictures (tools/thumbnails.py)
+        assert _png_size(panel.thumbnail_path(path)) == (160, 160), key
+    monkeypatch.setattr(operators, "user_preset_dir", lambda create=False: str(tmp_path))
+    result = images.array_to_image("Ball_stylized", np.full((512, 512, 3), (0.2, 0.4, 0.9), np.float32))
+    monkeypatch.setattr(operators, "_last_image", result.name)
+    images_before = set(bpy.data.images)
+    assert bpy.ops.cp_stylize.preset_add(name="Blue Look") == {"FINISHED"}
+    assert _png_size(tmp_path / "blue_look.png") == (128, 128)     # the run's image, a quarter across
+    assert set(bpy.data.images) == images_before           # no image left behind by the picture
+    log = []
+    panel.VIEW3D_PT_cp_stylize_presets.draw(types.SimpleNamespace(layout=FakeLayout(log)), bpy.context)
+    assert len([name for kind, name in log if kind == "operator"]) == len(builtin_presets()) + 1
+    # the pictures load as Blender's previews (their icons are drawn in a window: tests/gui)
+    for path in list(builtin_presets().values()) + [str(tmp_path / "blue_look.toml")]:
+        assert tuple(panel.preset_preview(path).image_size) == _png_size(panel.thumbnail_path(path)), path
+    assert bpy.ops.cp_stylize.preset_remove(name="blue_look") == {"FINISHED"}
+    assert not (tmp_path / "blue_look.png").exists() and not (tmp_path / "blue_look.toml").exists()
+    # saved again with no run to show: no picture, and an old one of that name does not stay
+    (tmp_path / "blue_look.png").write_bytes(b"old")
+    monkeypatch.setattr(operators, "_last_image", None)
+    assert bpy.ops.cp_stylize.preset_add(name="Blue Look") == {"FINISHED"}
+    assert (tmp_path / "blue_look.toml").exists() and not (tmp_path / "blue_look.png").exists()
 
 
 def test_the_properties_take_their_limits_from_the_parameter_table(registered):

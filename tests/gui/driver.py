@@ -204,6 +204,15 @@ def scenario_panel():
                      "line_width": settings.line_width}
     for cls in aside:
         bpy.utils.register_class(cls)
+    # the preset menu, a picture of each preset over its name
+    presets = sys.modules[f"{ADDON}.cp_stylize.presets"]
+    user = sys.modules[f"{ADDON}.cp_stylize.blender.operators"].user_folders()
+    facts["preset_icons"] = {key: panels.preset_icon(path) for key, path in presets.preset_paths(user).items()}
+    in_view3d(bpy.ops.wm.call_panel, name="VIEW3D_PT_cp_stylize_presets", keep_open=True)
+    yield 1.5
+    screenshot("preset_menu")
+    key("Escape")
+    yield 0.5
     # the Advanced sub-panel opened, with the others out of the way: the filter's own parameters
     in_view3d(bpy.ops.cp_stylize.preset_load, name="denoise_eed")
     aside = [panels.VIEW3D_PT_cp_stylize_paint, panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon,

@@ -88,6 +88,11 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert os.path.getsize(facts["screenshots"]["panel_toon_crop"]) > 10_000
     assert facts["toon"] == {"toon_levels": 4, "toon_outlines": 1.0, "line_width": pytest.approx(0.004)}
     assert os.path.getsize(facts["screenshots"]["panel_advanced_crop"]) > 10_000
+    from cp_stylize.presets import builtin_presets
+
+    icons = facts["preset_icons"]     # each shipped preset's picture is an icon the menu draws
+    assert set(builtin_presets()) <= set(icons) and all(icons[key] > 0 for key in builtin_presets()), icons
+    assert os.path.getsize(facts["screenshots"]["preset_menu"]) > 50_000
     sizes = facts["sizes"]      # Smoothing: the blur's radius, in the scene's units on the ball
     assert sizes["time_size"] == pytest.approx((2 * sizes["time"]) ** 0.5 * sizes["radius"], rel=0.02)
 
