@@ -124,6 +124,12 @@ class _Sidebar:
     bl_category = "Stylize"
 
 
+class _Closed(_Sidebar):
+    """A sub-panel of the Stylize panel, closed until the user opens it."""
+    bl_parent_id = "VIEW3D_PT_cp_stylize"
+    bl_options = {"DEFAULT_CLOSED"}
+
+
 class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_cp_stylize"
     bl_label = "Stylize"
@@ -197,20 +203,16 @@ class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
         layout.prop(settings, "contours")
 
 
-class VIEW3D_PT_cp_stylize_oil(_Sidebar, bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_oil(_Closed, bpy.types.Panel):
     bl_label = "Oil Paint"
-    bl_parent_id = "VIEW3D_PT_cp_stylize"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         _switched(_split(self.layout), context.scene.cp_stylize, "oil_size", ["oil_sharpness", "oil_eccentricity"],
                   text="Size")
 
 
-class VIEW3D_PT_cp_stylize_toon(_Sidebar, bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_toon(_Closed, bpy.types.Panel):
     bl_label = "Toon"
-    bl_parent_id = "VIEW3D_PT_cp_stylize"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         layout = _split(self.layout)
@@ -218,10 +220,8 @@ class VIEW3D_PT_cp_stylize_toon(_Sidebar, bpy.types.Panel):
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Line Width")
 
 
-class VIEW3D_PT_cp_stylize_palette(_Sidebar, bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_palette(_Closed, bpy.types.Panel):
     bl_label = "Palette"
-    bl_parent_id = "VIEW3D_PT_cp_stylize"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         settings = context.scene.cp_stylize
@@ -268,11 +268,9 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
             row.operator("cp_stylize.release", text="", icon="TRASH")
 
 
-class VIEW3D_PT_cp_stylize_advanced(_Sidebar, bpy.types.Panel):
+class VIEW3D_PT_cp_stylize_advanced(_Closed, bpy.types.Panel):
     """The filter's own parameters, as the methods name them: the diffusion time and the mode's parameters."""
     bl_label = "Advanced"
-    bl_parent_id = "VIEW3D_PT_cp_stylize"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         settings = context.scene.cp_stylize
