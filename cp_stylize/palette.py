@@ -15,7 +15,10 @@ take the same colour.  :func:`map_to_palette` works in OKLab
   above :data:`GREY`), their hue difference counts too, so a yellow keeps to
   the palette's yellows and ochres, a red door to its warmest colour, while
   a grey takes whichever colour the palette gives its tone (a grey sky the
-  painting's blues).
+  painting's blues).  Hue counts in the picture's lighter tones only (from
+  the tone rank :data:`HUE_FROM`, fully from :data:`HUE_FULL`): a dark brown
+  or a dark green keeps to the palette's colours of its tone, rather than
+  turn the palette's only warm colours, its light yellows, into stains.
 
 ``keep_values`` keeps the picture's own light and dark: from 0 (the equalised
 ranks above) to 1, where a colour's place among the palette's tones is where
@@ -52,6 +55,10 @@ HUE_REACH = 0.5
 #: The hue of a strongly coloured picture colour (chroma of (HUE_WEIGHT + 0.5) * GREY or more) counts this
 #: many times as much as one at 1.5 GREY.
 HUE_WEIGHT = 3.0
+#: A colour's hue counts from this tone rank on, and fully from HUE_FULL: the picture's darks keep to the
+#: palette's colours of their tone, whatever their hue (a dark brown does not turn the palette's yellow).
+HUE_FROM = 0.25
+HUE_FULL = 0.5
 #: Fidelity turns a colour's hue back to the picture's where its chroma is above this share of GREY:
 #: the dark, dull colours of a photograph have hues that read, although too weak to choose by.
 TURN_GREY = 0.25
@@ -189,6 +196,7 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values):
     tone = np.maximum(np.abs(ranks[:, None] - centres[None, :]) - weights[None, :] / 2, 0.0) / TONE_REACH
     # distance in hue: of the unit hue vectors, where both have a hue
     cos = (lab[:, 1:] @ lab_palette[:, 1:].T) / np.maximum(chroma[:, None] * palette_chroma[None, :], 1e-12)
+    hued = hued * np.clip((ranks - HUE_FROM) / (HUE_FULL - HUE_FROM), 0.0, 1.0)
     d2 = tone**2 + hued[:, None] * palette_hued[None, :] * (2.0 - 2.0 * cos) / HUE_REACH**2
     # the lightness blends softly between colours that fit alike; the hue and chroma come from a far
     # sharper choice, so that between a blue and a yellow of one tone the blend is not their grey

@@ -127,7 +127,7 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
     assert bpy.ops.cp_stylize.preset_load(name="starry_night") == {"FINISHED"}
     from cp_stylize.presets import load_preset
 
-    assert registered.mode == "gaussian" and len(registered.palette) == len(load_preset("starry_night").palette) == 11
+    assert registered.mode == "gaussian" and len(registered.palette) == len(load_preset("starry_night").palette) == 12
     assert (registered.noise_mapping, round(registered.detail, 6)) == ("tone", load_preset("starry_night").detail)
     assert (registered.strokes, registered.stroke_length, registered.stroke_layers) == (1.0, pytest.approx(0.12), 3)
     assert (registered.swirl, registered.relief, registered.contours) == pytest.approx((0.6, 0.6, 0.6))
