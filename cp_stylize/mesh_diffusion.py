@@ -160,18 +160,20 @@ class MeshOperators:
         """``values`` (n, C) smoothed by one implicit step of the linear filter to time ``t``."""
         return values if t <= 0 else self.implicit_step(values, t, self.laplacian, rtol)
 
-    def centred(self, values):
-        """``values`` (n, C) less their area-weighted means: the same gradients, and solves that do not
-        depend on a shift of the grey levels (the loose solves of the structure tensor start from and stop
-        near the same values whatever the shift)."""
-        return values - (self.mass @ values) / self.mass.sum()
+    def smoothed_gradients(self, values, sigma):
+        """The faces' gradients (F, 3, C) of vertex ``values`` (n, C) smoothed to time ``sigma``, for the
+        structure tensor and Perona-Malik's scale.  The values are taken less their area-weighted means (the
+        same gradients), so that the loose solve (:data:`TENSOR_RTOL`) starts from and stops near the same
+        values whatever a shift of the grey levels."""
+        centred = values - (self.mass @ values) / self.mass.sum()
+        return self.gradients(self.smoothed(centred, sigma, TENSOR_RTOL))
 
     def structure(self, values, sigma, rho):
         """The structure tensor (F, 3, 3) of vertex ``values`` (n, C): the faces' gradients of the values
         smoothed to time ``sigma``, their outer products summed over the channels, smoothed to time
         ``rho`` (its six components at the vertices, area-weighted from the faces); only its part in each face's
         plane counts (:func:`_eigen_in_plane` reads that)."""
-        g = self.gradients(self.smoothed(self.centred(values), sigma, TENSOR_RTOL))
+        g = self.smoothed_gradients(values, sigma)
         J = np.einsum("fic,fjc->fij", g, g)
         if rho > 0:
             upper = np.triu_indices(3)
@@ -287,7 +289,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
     for step in range(steps):
         if mode == "perona_malik":
             if scale is None:
-                smooth = ops.gradients(ops.smoothed(ops.centred(u), p["sigma"], TENSOR_RTOL))
+                smooth = ops.smoothed_gradients(u, p["sigma"])
                 scale = float(np.sqrt(np.max(np.sum(smooth**2, axis=(1, 2)))))
             lam2 = max((p["lambda_rel"] * scale) ** 2, TINY)
             g = ops.gradients(u)

@@ -61,17 +61,12 @@ def icosphere(subdivisions=4):
 def torus_mesh(around, R=0.7, r=0.3):
     """A torus of radii ``R`` and ``r`` (diameter 2 at the defaults) as ``around`` by about
     ``around * r / R`` quads, each split into two triangles: vertices (n, 3), faces (F, 3)."""
+    from cp_stylize.mesh import parametric_mesh
     from cp_stylize.surfaces import Torus
 
     tube = max(3, int(round(around * r / R)))
-    s, t = np.meshgrid(np.arange(around) / around, np.arange(tube) / tube, indexing="ij")
-    vertices = Torus(R, r).point(s.ravel(), t.ravel())
-    i, j = np.meshgrid(np.arange(around), np.arange(tube), indexing="ij")
-    a = (i * tube + j).ravel()
-    b = (((i + 1) % around) * tube + j).ravel()
-    c = (((i + 1) % around) * tube + (j + 1) % tube).ravel()
-    d = (i * tube + (j + 1) % tube).ravel()
-    return vertices, np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    vertices, faces, _ = parametric_mesh(Torus(R, r).point, around, tube, periodic_u=True, periodic_v=True)
+    return vertices, faces
 
 
 def signal(vertices):

@@ -280,26 +280,26 @@ def _run_property(parameter):
     return _float_property(parameter, **({"subtype": "FACTOR"} if parameter.name in FACTORS else {}))
 
 
-for _parameter in RUN.values():
-    CPStylizeSettings.__annotations__[PROPERTY_NAMES.get(_parameter.name, _parameter.name)] = _run_property(_parameter)
-for _mode, _filter in FILTERS.items():
-    for _parameter in _filter.parameters:
-        CPStylizeSettings.__annotations__[filter_property(_mode, _parameter.name)] = _float_property(
-            _parameter, default=_filter.defaults[_parameter.name])
-for _name in FILTER_PARAMETERS:
-    setattr(CPStylizeSettings, _name, _current(_name))
 #: The size views (names) of the lengths and times.
 SIZE_VIEWS = set()
+
+
+def _annotate(name, prop, parameter):
+    """Add the property ``prop`` under ``name`` to the settings, and its size view where ``parameter`` is a
+    length or a time."""
+    CPStylizeSettings.__annotations__[name] = prop
+    if parameter.sized:
+        SIZE_VIEWS.add(size_property(name))
+        CPStylizeSettings.__annotations__[size_property(name)] = _size_view(name, parameter)
+
+
 for _parameter in RUN.values():
-    if _parameter.sized:
-        _name = PROPERTY_NAMES.get(_parameter.name, _parameter.name)
-        SIZE_VIEWS.add(size_property(_name))
-        CPStylizeSettings.__annotations__[size_property(_name)] = _size_view(_name, _parameter)
+    _annotate(PROPERTY_NAMES.get(_parameter.name, _parameter.name), _run_property(_parameter), _parameter)
 for _mode, _filter in FILTERS.items():
     for _parameter in _filter.parameters:
-        if _parameter.sized:
-            _name = filter_property(_mode, _parameter.name)
-            SIZE_VIEWS.add(size_property(_name))
-            CPStylizeSettings.__annotations__[size_property(_name)] = _size_view(_name, _parameter)
+        _annotate(filter_property(_mode, _parameter.name),
+                  _float_property(_parameter, default=_filter.defaults[_parameter.name]), _parameter)
+for _name in FILTER_PARAMETERS:
+    setattr(CPStylizeSettings, _name, _current(_name))
 
 classes = (CPStylizePaletteColour, CPStylizeSettings)
