@@ -186,6 +186,21 @@ RUN = {p.name: p for p in (
                                             "strongest alone; 1: most of them, fainter ones too)", 0.0, 1.0, 0.5,
               precision=2,
               file=("lines", "detail")),
+    Parameter("hatch_spacing", "Hatching", "Ink hatching: the picture in lines of ink on white paper, this far "
+                                           "apart (object normalised to a diameter of 2), along the picture's "
+                                           "structure or the form; the darker the tone, the wider the lines and "
+                                           "the more layers cross them (0: none)",
+              0.0, 0.1, 0.0, "length", precision=4, step=0.1, file=("hatching", "spacing")),
+    Parameter("hatch_layers", "Layers", "Ink hatching: how many layers of lines the darkest tones take, each "
+                                        "crossing the one before (1 to 3)", 1, 3, 3, "count", precision=0, step=100,
+              file=("hatching", "layers")),
+    Parameter("hatch_angle", "Cross Angle", "Ink hatching: the angle in degrees between the first layer of lines "
+                                            "and the second (the third lies halfway between)", 15, 90, 90, "count", precision=0, step=100,
+              file=("hatching", "angle")),
+    Parameter("hatch_ink", "Ink", "Ink hatching: how much ink the picture's tones take (0.5: its own values, its "
+                                  "lightest clean paper and its darkest near-solid ink; towards 0 lighter, towards "
+                                  "1 darker)", 0.0, 1.0, 0.5,
+              precision=2, file=("hatching", "ink")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),

@@ -37,10 +37,12 @@ from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
 from .toon import Toon
+from .hatching import INK, PAPER, Hatching
 from .stars import find_stars, on_band, on_picture
 from .lines import Lines
 from .mesh import TriangleMesh, surface_faces
 from .noise import inject_noise
+from .oklab import to_oklab
 from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
@@ -154,7 +156,8 @@ def stroke_field(band, settings, directions=None):
     if source in ("max", "min"):
         curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
         field = curvature.direction(source) * curvature.confidence[:, None]
-        if settings.strokes > 0:        # brush strokes: along the object's axis where the form has no direction
+        if settings.strokes > 0 or settings.hatch_spacing > 0:   # strokes and lines: along the object's axis
+            # where the form has no direction
             field = form_field(band, field, around=source == "max")
         return field
     if source == "axis":
@@ -226,6 +229,8 @@ def input_colours(colours, settings, channels=3):
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
     if settings.line_width > 0 or (settings.toon_levels and settings.toon_outlines > 0):   # ink goes to black
         found.append(np.zeros((1, channels), np.float32))
+    if settings.hatch_spacing > 0:                               # hatching: ink and paper alone
+        found.append(np.pad(np.float32(hatch_colours(settings))[:, :channels], ((0, 0), (0, max(0, channels - 3)))))
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)
         found.append(np.zeros((1, channels), np.float32) if ink is None else
@@ -272,6 +277,26 @@ def brush_for(settings):
                  chain=settings.stroke_chain, jitter=settings.stroke_jitter, swirl=settings.swirl,
                  strength=settings.strokes, seed=settings.seed,
                  fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
+
+
+def hatch_colours(settings):
+    """The ink and the paper (2, 3) of the settings' hatching: the palette's darkest and lightest where it has
+    two colours or more, else :data:`cp_stylize.hatching.INK` and :data:`~cp_stylize.hatching.PAPER`."""
+    if len(settings.palette) >= 2:
+        palette = np.asarray(settings.palette, dtype=np.float64)[:, :3]
+        lightness = to_oklab(palette)[:, 0]
+        return np.stack([palette[np.argmin(lightness)], palette[np.argmax(lightness)]])
+    return np.array([INK, PAPER], dtype=np.float64)
+
+
+def hatching(mesh, band, atlas, settings, *, sampled, field, colours):
+    """The :class:`~cp_stylize.hatching.Hatching` of a run: lines along the structure of the picture's
+    ``sampled`` colours, else along ``field`` (the settings' direction) or the picture's level."""
+    level = level_field(band, field, picture_level(mesh, colours)) if colours.textures else None
+    return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
+                    settings.hatch_spacing, layers=settings.hatch_layers, angle=settings.hatch_angle,
+                    ink=settings.hatch_ink, field=field, level=level, colours=hatch_colours(settings),
+                    seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
@@ -362,6 +387,9 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         clock.lap("oil")
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness, atlas.size, settings.toon_outlines))
+    if settings.hatch_spacing > 0:         # the tones in lines of ink on paper
+        paint = layered(paint, hatching(mesh, band, atlas, settings, sampled=sampled, field=field, colours=colours))
+        clock.lap("hatching")
     if settings.line_width > 0:            # ink lines over the flat colours, under any strokes
         paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,
                                      source=picture_at))

@@ -45,6 +45,12 @@ the extension)::
     width = 0.006         # the lines' width (object 2 units across); 0: none
     detail = 0.5          # 0: the strongest edges alone; 1: most of them
 
+    [hatching]            # optional: ink hatching, lines of ink on paper (cp_stylize.hatching)
+    spacing = 0.012       # the lines' spacing (object 2 units across); 0: none
+    layers = 2            # layers of lines in the darkest tones
+    angle = 50            # degrees between the layers
+    ink = 0.5             # how much of the tones take ink
+
     [output]              # optional
     size = 1024           # the image's texels a side
     margin = 16           # texels around the islands that repeat their border colours
@@ -110,6 +116,7 @@ _FILE = {
     "oil": _run_keys("oil"),
     "toon": _run_keys("toon"),
     "lines": _run_keys("lines"),
+    "hatching": _run_keys("hatching"),
     "output": {"size": "image_size", "margin": "margin"},
 }
 
@@ -427,7 +434,8 @@ def preset_text(settings):
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
     lines += ["]", "", "[strokes]", *run("strokes")]
-    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[lines]", *run("lines")]
+    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[lines]", *run("lines"),
+              "", "[hatching]", *run("hatching")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

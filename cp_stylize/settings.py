@@ -210,6 +210,10 @@ class StylizeSettings:
     toon_levels: int = RUN["toon_levels"].default   # toon bands of lightness (cp_stylize.toon); 0: none
     toon_softness: float = RUN["toon_softness"].default
     toon_outlines: float = RUN["toon_outlines"].default
+    hatch_spacing: float = RUN["hatch_spacing"].default   # ink hatching (cp_stylize.hatching); 0: none
+    hatch_layers: int = RUN["hatch_layers"].default
+    hatch_angle: int = RUN["hatch_angle"].default
+    hatch_ink: float = RUN["hatch_ink"].default
     line_width: float = RUN["line_width"].default   # ink lines (cp_stylize.lines); 0: none
     line_detail: float = RUN["line_detail"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
@@ -248,9 +252,10 @@ class StylizeSettings:
                              "colour a weight above 0")
 
     def _check_direction(self):
-        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes:
-            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)} and for "
-                             f"brush strokes, not {self.mode!r} without strokes")
+        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes \
+                and not self.hatch_spacing:
+            raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)}, brush strokes "
+                             f"and hatching, not {self.mode!r} without either")
         if self.mode == "flow" and self.direction == "texture":
             raise ValueError("mode 'flow' draws along a direction field: direction must be one of "
                              f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")

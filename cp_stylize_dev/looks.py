@@ -323,10 +323,10 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
     return figures
 
 
-def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, log=print):
+def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, hatching=True, log=print):
     """The painterly presets' measures on the three subjects (see :func:`subjects`), with ``oil`` the Oil
-    Paint preset's against Blender's Kuwahara node, and with ``toon`` the Toon preset's (:func:`_toon`);
-    returns them as a dict.
+    Paint preset's against Blender's Kuwahara node, with ``toon`` the Toon preset's (:func:`_toon`) and with
+    ``hatching`` the Ink Hatching preset's (:func:`_hatching`); returns them as a dict.
 
     Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
     subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
@@ -377,6 +377,9 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=Tru
                                                                size, log)
         if toon:
             figures[f"{subject_name}_toon"] = _toon(subject_name, subject, source, mask, size, log)
+        if hatching:
+            figures[f"{subject_name}_hatching"] = _hatching(subject_name, subject, source, mask, texel, size, out_dir,
+                                                            log)
     return figures
 
 
@@ -436,6 +439,120 @@ def _toon(subject_name, subject, source, mask, size, log):
     log(f"{subject_name:8s} toon            {100 * row['on_levels']:.0f} % of texels on its {row['levels']} levels, "
         f"outlines along {100 * row['outlines']:.0f} % of the strongest edges, edges {row['edges']:.2f}, "
         f"{ours.seconds:.0f} s")
+    return row
+
+
+def paper_or_ink(image, mask, ink, paper, reach=0.15):
+    """The share of the texels ``mask`` of ``image`` whose colour lies within ``reach`` (in each sRGB channel) of
+    the ``paper`` or the ``ink``."""
+    colours = np.asarray(image, dtype=np.float64)[mask][:, :3]
+    near = np.minimum(np.abs(colours - paper).max(axis=1), np.abs(colours - ink).max(axis=1)) <= reach
+    return float(near.mean())
+
+
+def ink_share(image, ink, paper):
+    """How far each texel's colour (H, W) lies from the ``paper`` towards the ``ink``, in [0, 1]."""
+    span = np.asarray(ink, dtype=np.float64) - paper
+    return np.clip((np.asarray(image, dtype=np.float64)[..., :3] - paper) @ span / (span @ span), 0.0, 1.0)
+
+
+def line_widths(inked, mask):
+    """The widths (texels) of the lines of a boolean ink image (H, W) within ``mask``: at each texel of a line's
+    middle (a local maximum of its distance to the paper, over its 3 x 3 neighbours), twice that distance less
+    one (a line one texel wide has its middle one texel from the paper)."""
+    distance = ndimage.distance_transform_edt(inked)
+    middle = inked & (distance >= ndimage.maximum_filter(distance, 3)) & _inner(mask, 3)
+    return 2.0 * distance[middle] - 1.0
+
+
+def tone_correlation(ink, lightness, mask, window=16):
+    """The correlation, over ``window`` x ``window`` blocks wholly in ``mask``, of their mean ink and the mean
+    lightness of the source under them."""
+    h, w = ink.shape
+    h, w = h - h % window, w - w % window
+
+    def blocks(a):
+        return a[:h, :w].reshape(h // window, window, w // window, window).mean(axis=(1, 3))
+
+    whole = blocks(mask.astype(np.float64)) == 1.0
+    return float(np.corrcoef(blocks(ink)[whole], blocks(lightness)[whole])[0, 1])
+
+
+def hatch_spacings(hatch, probes=400, seed=0, darkness=0.3, reach=4.0):
+    """The lines' spacing measured on the surface: from ``probes`` random points of a run's
+    :class:`~cp_stylize.hatching.Hatching`, each walks ``reach`` spacings across the first layer's lines (along
+    its nearest kernel's direction, in steps of a twentieth of a spacing, in the tangent plane) at one tone
+    (``darkness``, whole lines of the first layer alone), and counts the lines it crosses; each probe's spacing
+    is the distance from the first line's near edge to the last's over the lines between.  Returns the
+    spacings (in the hatching's lengths) of the probes that crossed at least three lines."""
+    from cp_stylize.strokes import _surface_samples
+
+    mesh = hatch.mesh
+    rng = np.random.default_rng(seed)
+    points, faces, barys = _surface_samples(mesh, probes, rng)
+    normals = mesh.normal(points, faces, barys)
+    kernels = hatch._layers[0]
+    _, nearest = hatch.tree.query(points)
+    across = kernels.across[nearest]
+    across -= np.einsum("ij,ij->i", across, normals)[:, None] * normals
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    steps = np.arange(0.0, reach, 0.05) * hatch.spacing
+    at = (points[:, None, :] + steps[None, :, None] * across[:, None, :]).reshape(-1, 3)
+    n = len(steps)
+    ink = hatch.ink_at(at, np.repeat(normals, n, axis=0), np.repeat(mesh.piece[faces], n),
+                       np.full(len(at), 0.05 * hatch.spacing), np.full(len(at), darkness)).reshape(probes, n)
+    found = []
+    for row in ink:
+        rises = np.flatnonzero((row[1:] >= 0.5) & (row[:-1] < 0.5))
+        if len(rises) >= 3:
+            found.append((rises[-1] - rises[0]) / (len(rises) - 1) * 0.05 * hatch.spacing)
+    return np.array(found)
+
+
+def _hatching(subject_name, subject, source, mask, texel, size, out_dir, log):
+    """The Ink Hatching preset's measures on a subject, given the run that changes nothing (``source``): the
+    share of texels on paper or ink, the lines' widths in texels (a run of one layer), their spacing on the
+    surface within one tone (:func:`hatch_spacings`), the correlation of ink and the source's lightness, and the
+    edge measure at the scale of the lines' spacing."""
+    import os
+
+    from cp_stylize import hatching as module
+    from cp_stylize.oklab import to_oklab
+    from cp_stylize.pipeline import hatch_colours
+    from cp_stylize.presets import load_preset
+    from cp_stylize.texture import write_png
+
+    settings = load_preset("hatching")
+    made = []
+    original = module.Hatching.__init__
+
+    def keep(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        made.append(self)
+
+    module.Hatching.__init__ = keep
+    try:
+        ours = _run(subject, settings, size)
+        single = _run(subject, settings.replace(hatch_layers=1, line_width=0.0), size)
+    finally:
+        module.Hatching.__init__ = original
+    write_png(os.path.join(out_dir, f"{subject_name}_hatching.png"), ours.image)
+    ink, paper = hatch_colours(settings)
+    widths = line_widths(ink_share(single.image, ink, paper) > 0.5, mask)
+    spacings = hatch_spacings(made[0])
+    lightness = to_oklab(np.clip(source.image[..., :3], 0, 1).astype(np.float64))[..., 0]
+    spacing_px = made[0].spacing / texel
+    row = {"paper_or_ink": paper_or_ink(ours.image, mask, ink, paper),
+           "widths": [float(np.quantile(widths, q)) for q in (0.05, 0.5, 0.95)],
+           "spacing": made[0].spacing, "spacing_spread": float(np.std(spacings) / np.mean(spacings)),
+           "probes": len(spacings),
+           "tone_correlation": tone_correlation(ink_share(ours.image, ink, paper), lightness, mask),
+           "edges": edge_survival(ours.image, source.image, spacing_px, mask), "seconds": ours.seconds}
+    log(f"{subject_name:8s} hatching        {100 * row['paper_or_ink']:.0f} % of texels paper or ink, lines "
+        f"{row['widths'][0]:.1f} / {row['widths'][1]:.1f} / {row['widths'][2]:.1f} texels wide (5th, 50th, 95th "
+        f"percentile), spacing {row['spacing']:.4f} varying by {100 * row['spacing_spread']:.0f} % on "
+        f"{row['probes']} probes, ink against lightness {row['tone_correlation']:.2f}, edges at {spacing_px:.1f} "
+        f"texels {row['edges']:.2f}, {ours.seconds:.0f} s")
     return row
 
 

@@ -37,12 +37,6 @@ def test_the_painterly_presets_are_each_their_own_look():
     assert len({starry.palette, form.palette, sunflowers.palette}) == 3
 
 
-def test_hatching_draws_along_the_minimum_curvature():
-    hatching = load_preset("hatching")
-    assert (hatching.mode, hatching.stroke_direction, hatching.ink > 0) == ("flow", "min", True)
-    assert hatching.noise_fraction == 0                      # the texture keeps its tones: ink over it
-
-
 def test_save_and_load_round_trip(tmp_path):
     s = load_preset("starry_night").replace(name="Mine", T=2e-4, image_size=2048)
     back = load_preset(save_preset(s, tmp_path / "mine.toml"))
@@ -95,15 +89,15 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\nT = -1.0', "T must lie in [1e-06, 0.1], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
                                 "'detail', 'contours', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', "
-                                "'oil', 'toon', 'lines', 'output']"),
+                                "'oil', 'toon', 'lines', 'hatching', 'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',
      f"[noise] palette entry 1 must be {ENTRY}, got ['#12345', 1]"),
     ('mode = "ced"\ndirection = "up"', "direction must be one of ['texture', 'max', 'min', 'axis', 'attribute'], "
                                        "got 'up'"),
-    ('mode = "eed"\ndirection = "min"', "direction 'min' is for the modes ['ced', 'flow'] and for brush strokes, "
-                                       "not 'eed' without strokes"),
+    ('mode = "eed"\ndirection = "min"', "direction 'min' is for the modes ['ced', 'flow'], brush strokes and "
+                                       "hatching, not 'eed' without either"),
     ('mode = "flow"\ndirection = "texture"', "mode 'flow' draws along a direction field: direction must be one of "
                                              "['max', 'min', 'axis', 'attribute'], not 'texture'"),
     ('mode = "ced"\naxis = [0, 0, 0]', "axis must be three finite numbers, not all zero, got [0, 0, 0]"),

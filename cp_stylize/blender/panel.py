@@ -146,7 +146,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         layout = _split(self.layout)
         layout.prop(settings, "mode")
         obj = context.active_object
-        if settings.mode in DIRECTED_MODES or settings.strokes > 0:
+        if settings.mode in DIRECTED_MODES or settings.strokes > 0 or settings.hatch_spacing > 0:
             layout.prop(settings, "direction")
             if settings.direction == "axis":
                 layout.prop(settings, "axis")
@@ -220,6 +220,16 @@ class VIEW3D_PT_cp_stylize_toon(_Closed, bpy.types.Panel):
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Line Width")
 
 
+class VIEW3D_PT_cp_stylize_hatching(_Closed, bpy.types.Panel):
+    bl_label = "Ink Hatching"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        _switched(layout, context.scene.cp_stylize, "hatch_spacing", ["hatch_layers", "hatch_angle", "hatch_ink"],
+                  text="Spacing")
+        _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Outlines")
+
+
 class VIEW3D_PT_cp_stylize_palette(_Closed, bpy.types.Panel):
     bl_label = "Palette"
 
@@ -282,5 +292,5 @@ class VIEW3D_PT_cp_stylize_advanced(_Closed, bpy.types.Panel):
 
 
 classes = (VIEW3D_PT_cp_stylize_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
-           VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_palette,
+           VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_hatching, VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output, VIEW3D_PT_cp_stylize_advanced)

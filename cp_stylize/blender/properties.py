@@ -193,7 +193,8 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from ..settings import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
-        direction = self.direction if self.mode in DIRECTED_MODES or self.strokes > 0 else None
+        directed = self.mode in DIRECTED_MODES or self.strokes > 0 or self.hatch_spacing > 0
+        direction = self.direction if directed else None
         # the axis where it is used or usable (a zeroed axis must not stop an attribute run), so a preset keeps it
         axis = {"axis": tuple(self.axis)} if direction == "axis" or any(self.axis) else {}
         run = {name: getattr(self, PROPERTY_NAMES.get(name, name)) for name in RUN}

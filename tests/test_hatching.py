@@ -1,0 +1,160 @@
+"""Ink hatching: lines of ink at a set spacing on the surface, denser in the darks (cp_stylize.hatching)."""
+
+import numpy as np
+import pytest
+
+from cp_stylize import hatching
+from cp_stylize.mesh import parametric_mesh
+from cp_stylize.pipeline import ColourInput, hatch_colours, stylize
+from cp_stylize.presets import StylizeSettings, load_preset
+from cp_stylize.surfaces import Torus
+from cp_stylize_dev.looks import city_plane
+
+INK, PAPER = np.asarray(hatching.INK), np.asarray(hatching.PAPER)
+
+
+def _run(image, settings, mesh=None):
+    vertices, faces, uvs = city_plane(32, 16) if mesh is None else mesh
+    colours = ColourInput.constant(len(faces), (0.0, 0.0, 0.0))
+    colours.textures.append((np.asarray(image, np.float32), uvs, np.ones(len(faces), bool)))
+    result = stylize(vertices, faces, colours, settings, uvs=uvs)
+    return result, result.atlas.coverage.reshape(settings.image_size, settings.image_size)
+
+
+def _ink(image):
+    """How far each texel's colour lies from the paper towards the ink (H, W)."""
+    span = INK - PAPER
+    return np.clip((np.asarray(image)[..., :3] - PAPER) @ span / (span @ span), 0.0, 1.0)
+
+
+#: Lines along the plane's x axis (the image's rows), 0.04 apart: about 11 texels of a 256 x 256 image across them.
+_LINES = StylizeSettings(mode="gaussian", T=1e-6, spacing=0.03, image_size=256, detail=0.0, direction="axis",
+                         axis=(1.0, 0.0, 0.0), hatch_spacing=0.04, hatch_layers=1, hatch_ink=0.75)
+
+
+def _period(column):
+    """The mean distance (texels) between the lines a 1-D ink profile crosses: from the first line's rising
+    edge to the last's, over the lines between."""
+    rises = np.flatnonzero((column[1:] >= 0.5) & (column[:-1] < 0.5))
+    return (rises[-1] - rises[0]) / (len(rises) - 1)
+
+
+def test_lines_lie_a_spacing_apart_along_the_direction_and_are_as_wide_as_the_tone_asks():
+    grey = np.full((64, 64, 3), 0.5, np.float32)     # Ink 0.75: a flat grey asks for a quarter of its area in ink
+    result, covered = _run(grey, _LINES)
+    ink = _ink(result.image)
+    rows = covered.all(axis=1)
+    inner = np.flatnonzero(rows)[8:-8]
+    texel_v = 1.0 / 256 * 2.0 / np.sqrt(5.0)               # a texel's height, the plane normalised to a diameter of 2
+    expected = 0.04 / texel_v
+    periods = np.array([_period(ink[inner, c]) for c in range(16, 240, 8)])
+    # the lines' spacing on the surface holds across the whole plane: within 10 % of the set spacing
+    assert np.all(np.abs(periods / expected - 1.0) < 0.1), periods / expected
+    # the lines run along x: along a row the ink hardly changes, across the rows it does
+    block = ink[inner][:, 16:240]
+    assert np.abs(np.diff(block, axis=1)).mean() < 0.25 * np.abs(np.diff(block, axis=0)).mean()
+    # a flat tone is drawn as whole lines of one width: ink and paper, hardly anything between
+    assert np.mean((block < 0.15) | (block > 0.85)) > 0.8
+    # ... as wide as the ink asked for: lines a quarter of the spacing wide cover a quarter of the surface
+    assert block.mean() == pytest.approx(0.25, abs=0.04)
+    assert result.height is None and hatching.Hatching.columns is None
+
+
+def test_darker_tones_take_more_ink_and_a_second_layer_crosses_the_first():
+    ramp = np.repeat(np.linspace(0.95, 0.05, 64)[None, :, None], 64, axis=0).repeat(3, axis=2)  # dark to the right
+    settings = _LINES.replace(hatch_layers=2, hatch_ink=0.5)
+    result, covered = _run(ramp, settings)
+    ink = _ink(result.image)
+    columns = np.array([ink[covered[:, c], c].mean() for c in range(8, 248)])
+    lightness = np.linspace(0.95, 0.05, 256)[8:248]
+    windows = np.add.reduceat(columns, np.arange(0, len(columns), 8)) / 8
+    assert np.corrcoef(windows, np.add.reduceat(lightness, np.arange(0, len(lightness), 8)) / 8)[0, 1] < -0.9
+    # the lightest stay paper; the darkest near-solid (two layers cover up to 1 - (1 - WIDEST) (1 - DEEPEST))
+    assert columns[:10].mean() < 0.02 and columns[-10:].mean() > 0.6
+    # texels are paper or ink: at most anti-aliased edges in between
+    colours = result.image[covered][:, :3]
+    near = np.minimum(np.abs(colours - PAPER).max(axis=1), np.abs(colours - INK).max(axis=1)) <= 0.15
+    assert near.mean() > 0.8
+    # in the darks a second layer crosses the first: the ink changes along the rows too
+    dark = ink[np.flatnonzero(covered.all(axis=1))[8:-8]][:, 200:240]
+    light = ink[np.flatnonzero(covered.all(axis=1))[8:-8]][:, 70:110]
+    assert np.abs(np.diff(dark, axis=1)).mean() > 3 * np.abs(np.diff(light, axis=1)).mean()
+
+
+def test_the_lines_run_on_across_a_uv_seam():
+    """A torus whose texture wraps at u = 0: the columns either side of the seam meet as neighbours inside do."""
+    vertices, faces, uvs = parametric_mesh(Torus(10.0, 4.0).point, 64, 32, periodic_u=True, periodic_v=True)
+    grey = np.full((32, 32, 3), 0.45, np.float32)
+    settings = StylizeSettings(mode="gaussian", T=1e-6, spacing=0.04, image_size=256, detail=0.0, margin=0,
+                               direction="max", hatch_spacing=0.06, hatch_layers=1, hatch_ink=0.75)
+    result, covered = _run(grey, settings, (vertices, faces, uvs))
+    ink = _ink(result.image)
+    rows = np.flatnonzero(covered[:, 0] & covered[:, -1])
+    across = np.abs(ink[rows, 0] - ink[rows, -1]).mean()
+    inside = np.abs(np.diff(ink[rows], axis=1)).mean()
+    assert 0.05 < ink[covered].mean() < 0.6
+    assert across < 1.5 * inside, (across, inside)
+
+
+def test_phase_alignment_leaves_few_breaks_in_the_lines():
+    """With a calm direction field, aligned kernels sum to one plane wave: the phase rises at the set rate
+    nearly everywhere, where random kernel phases would break the lines at every few spacings."""
+    grey = np.full((16, 16, 3), 0.5, np.float32)
+    found = {}
+    original = hatching.Hatching.__init__
+
+    def keep(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        found["hatching"] = self
+
+    hatching.Hatching.__init__ = keep
+    try:
+        _run(grey, _LINES.replace(image_size=64))
+    finally:
+        hatching.Hatching.__init__ = original
+    h = found["hatching"]
+    rng = np.random.default_rng(0)
+    at = np.column_stack([rng.uniform(-0.6, 0.6, 2000), rng.uniform(-0.25, 0.25, 2000), np.zeros(2000)])
+    at *= 2.0 / np.sqrt(5.0)
+    normals = np.tile([0.0, 0.0, 1.0], (2000, 1))
+    piece = np.zeros(2000, np.int32)
+    step = 0.05 * h.spacing
+    before, _ = h.phase(0, at, normals, piece)
+    after, _ = h.phase(0, at + [0.0, step, 0.0], normals, piece)
+    rate = np.abs(np.angle(np.exp(1j * (after - before)))) / step
+    assert np.mean(np.abs(rate / h.frequency - 1.0) < 0.15) > 0.95
+    # the same kernels with random phases: many more breaks
+    kernels = h._layers[0]
+    aligned = kernels.phases
+    kernels.phases = np.exp(2j * np.pi * rng.random(len(aligned)))
+    before, _ = h.phase(0, at, normals, piece)
+    after, _ = h.phase(0, at + [0.0, step, 0.0], normals, piece)
+    kernels.phases = aligned
+    rate_random = np.abs(np.angle(np.exp(1j * (after - before)))) / step
+    steady = np.mean(np.abs(rate / h.frequency - 1.0) < 0.15)
+    assert np.mean(np.abs(rate_random / h.frequency - 1.0) < 0.15) < steady - 0.1
+
+
+def test_the_ink_and_paper_are_the_palettes_darkest_and_lightest():
+    settings = _LINES.replace(palette=((0.9, 0.85, 0.7), (0.1, 0.05, 0.2), (0.5, 0.5, 0.5)))
+    ink, paper = hatch_colours(settings)
+    np.testing.assert_allclose(ink, (0.1, 0.05, 0.2))
+    np.testing.assert_allclose(paper, (0.9, 0.85, 0.7))
+    np.testing.assert_allclose(hatch_colours(_LINES), [hatching.INK, hatching.PAPER])
+
+
+def test_bad_hatching_settings_are_refused_with_their_names():
+    with pytest.raises(ValueError, match="hatch_layers"):
+        StylizeSettings(mode="gaussian", hatch_spacing=0.02, hatch_layers=4)
+    with pytest.raises(ValueError, match="hatch_angle"):
+        StylizeSettings(mode="gaussian", hatch_spacing=0.02, hatch_angle=120)
+    with pytest.raises(ValueError, match="direction 'max' is for"):
+        StylizeSettings(mode="gaussian", direction="max")
+    assert StylizeSettings(mode="eed", direction="max", hatch_spacing=0.02).stroke_direction == "max"
+
+
+def test_the_ink_hatching_preset_draws_lines_with_outlines():
+    preset = load_preset("hatching")
+    assert preset.name == "Ink Hatching" and preset.hatch_spacing > 0 and preset.line_width > 0
+    assert preset.hatch_layers >= 2 and preset.stroke_direction == "max"        # around the form
+    assert preset.strokes == 0 and preset.noise_fraction == 0 and not preset.palette     # black ink, white paper
