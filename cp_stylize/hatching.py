@@ -77,13 +77,13 @@ DASH_SCALE = 2.5
 DASH_SHIFT = np.array([7.3, -3.1, 5.7])
 #: The lines are at least this many texels apart where the atlas's texels are longest (its 90th percentile):
 #: a line too fine for its texels would turn grey.
-MIN_TEXELS = 6.0
+MIN_TEXELS = 7.0
 #: The darkness runs from 0 at this quantile of the picture's lightness (and lighter: clean paper) to 1 at
 #: this one (and darker: near-solid ink), linearly between.
 LIGHTEST, DARKEST = 0.97, 0.02
 #: ... raised to this power: the mid-tones a little lighter than their place between, as a pen drawing keeps
 #: its middle values open and saves the solid ink for the darkest.
-TONE_POWER = 1.2
+TONE_POWER = 1.7
 #: The ink and the paper (sRGB) without a palette.
 INK = (0.05, 0.045, 0.05)
 PAPER = (0.97, 0.955, 0.92)

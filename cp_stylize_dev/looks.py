@@ -510,10 +510,11 @@ def hatch_spacings(hatch, probes=400, seed=0, darkness=0.3, reach=4.0):
 
 
 def _hatching(subject_name, subject, source, mask, texel, size, out_dir, log):
-    """The Ink Hatching preset's measures on a subject, given the run that changes nothing (``source``): the
-    share of texels on paper or ink, the lines' widths in texels (a run of one layer), their spacing on the
-    surface within one tone (:func:`hatch_spacings`), the correlation of ink and the source's lightness, and the
-    edge measure at the scale of the lines' spacing."""
+    """The Ink Hatching preset's measures on a subject, given the run that changes nothing (``source``), of its
+    hatching without its outlines: the share of texels on paper or ink, the lines' widths in texels (where the
+    tone asks for the first layer alone), their spacing on the surface within one tone
+    (:func:`hatch_spacings`), the correlation of ink and the source's lightness, and the edge measure at the
+    scale of the lines' spacing."""
     import os
 
     from cp_stylize import hatching as module
@@ -532,15 +533,18 @@ def _hatching(subject_name, subject, source, mask, texel, size, out_dir, log):
 
     module.Hatching.__init__ = keep
     try:
-        ours = _run(subject, settings, size)
-        single = _run(subject, settings.replace(hatch_layers=1, line_width=0.0), size)
+        ours = _run(subject, settings.replace(line_width=0.0), size)
     finally:
         module.Hatching.__init__ = original
     write_png(os.path.join(out_dir, f"{subject_name}_hatching.png"), ours.image)
     ink, paper = hatch_colours(settings)
-    widths = line_widths(ink_share(single.image, ink, paper) > 0.5, mask)
-    spacings = hatch_spacings(made[0])
     lightness = to_oklab(np.clip(source.image[..., :3], 0, 1).astype(np.float64))[..., 0]
+    # the lines' widths where the tone asks for the first layer alone (no crossing lines to merge with)
+    darkness = np.zeros_like(lightness)
+    darkness[mask] = made[0].darkness(lightness[mask])
+    first = mask & (darkness > 0) & (darkness < module.WIDEST)
+    widths = line_widths(ink_share(ours.image, ink, paper) > 0.5, first)
+    spacings = hatch_spacings(made[0])
     spacing_px = made[0].spacing / texel
     row = {"paper_or_ink": paper_or_ink(ours.image, mask, ink, paper),
            "widths": [float(np.quantile(widths, q)) for q in (0.05, 0.5, 0.95)],
