@@ -24,22 +24,24 @@ surface whatever the charts' scale:
   hatching does.  The direction is a line field (``d`` and ``-d`` alike):
   a neighbour whose direction points the other way enters with its
   frequency and phase negated, which is the same oscillation;
-- **the direction** is the stroke field's (:class:`~cp_stylize.stroke_field.StrokeField`):
-  the picture's structure over :data:`FIELD_SCALE` spacings where it has
-  some, else a given field (the form's principal directions) or the
-  picture's level; the second layer is turned by ``angle`` and the third by
-  half of it (0, 90 and 45 degrees by default, as an engraver crosses);
+- **the direction** is a given field where it has one (the form's, or the
+  picture's horizontal: :func:`cp_stylize.pipeline.hatching`), else the
+  picture's structure over :data:`FIELD_SCALE` spacings
+  (:class:`~cp_stylize.stroke_field.StrokeField`); the second layer is
+  turned by ``angle`` and the third by half of it (0, 90 and 45 degrees by
+  default, as an engraver crosses);
 - **tone**: the ink each texel asks for is the darkness of the filtered
-  colours there, from clean paper at the picture's lightest (its 97th
-  percentile of lightness) to near-solid ink at its darkest (its 2nd), so
-  the drawing keeps the picture's values.  The first layer's lines widen
-  with it up to :data:`WIDEST` of a spacing; from there the second layer
-  covers what is still asked for, then the third, which swells up to
-  :data:`DEEPEST`, so the ink builds up smoothly, layer on layer, without
-  patches where a layer switches on.  A layer that should cover less than
-  its narrowest line (:data:`LINE_MIN`) is drawn as dashes of that line, as
-  many as make up its share (a smooth noise on the surface chooses which
-  stretches);
+  colours there, each lightness first moved away from the picture's broad
+  lightness around it (:data:`LOCAL`, :data:`BROAD`), then taken from clean
+  paper at the picture's light tones (:data:`LIGHTEST`) to near-solid ink at
+  its darkest (:data:`DARKEST`), the mid-tones open (:data:`TONE_POWER`).
+  The first layer's lines widen with it up to :data:`WIDEST` of a spacing;
+  from there the second layer covers what is still asked for, then the
+  third, which swells up to :data:`DEEPEST`, so the ink builds up smoothly,
+  layer on layer, without patches where a layer switches on.  A layer that
+  should cover less than its narrowest line (:data:`LINE_MIN`) is drawn as
+  dashes of that line, as many as make up its share (a smooth noise on the
+  surface chooses which stretches);
 - every line's edge is anti-aliased over one texel, from its distance to the
   line's centre (the phase's distance from 0 over its rate of change).
 
@@ -52,6 +54,7 @@ import numpy as np
 
 from .arrays import smooth_step
 from .oklab import to_oklab
+from .smoothing import GridGaussian, taper
 from .stroke_field import StrokeField, Swirls
 from .strokes import _spread, _surface_samples
 
@@ -80,10 +83,14 @@ DASH_SHIFT = np.array([7.3, -3.1, 5.7])
 MIN_TEXELS = 7.0
 #: The darkness runs from 0 at this quantile of the picture's lightness (and lighter: clean paper) to 1 at
 #: this one (and darker: near-solid ink), linearly between.
-LIGHTEST, DARKEST = 0.97, 0.02
+LIGHTEST, DARKEST = 0.85, 0.02
 #: ... raised to this power: the mid-tones a little lighter than their place between, as a pen drawing keeps
 #: its middle values open and saves the solid ink for the darkest.
-TONE_POWER = 1.7
+TONE_POWER = 1.5
+#: Before that, each lightness is moved away from the picture's broad light and dark around it (its lightness
+#: blurred over :data:`BROAD` of the object, on the surface) by this share of the difference: a dark picture
+#: keeps its forms in the ink instead of one mesh of crossing lines.
+LOCAL, BROAD = 1.0, 0.15
 #: The ink and the paper (sRGB) without a palette.
 INK = (0.05, 0.045, 0.05)
 PAPER = (0.97, 0.955, 0.92)
@@ -105,7 +112,8 @@ class _Layer:
 
 class Hatching:
     """Ink hatching at the bake-out (``paint=`` of :func:`cp_stylize.baking.bake_to_atlas`): the texels'
-    colours become paper and ink (see the module's notes).  Reads no band columns and leaves no height.
+    colours become paper and ink (see the module's notes).  Reads the picture's broad lightness (its band
+    column, :attr:`columns`) at the texels and leaves no height.
 
     Parameters
     ----------
@@ -125,14 +133,13 @@ class Hatching:
     ink : float in [0, 1]
         How much ink the tones take: 0.5 the picture's own values, towards 1 darker, towards 0 lighter.
     field, level : ndarray, shape (N, 3), optional
-        Where the lines run where the picture has no structure (see
-        :meth:`cp_stylize.stroke_field.StrokeField.at`).
+        Where the lines run (see :meth:`cp_stylize.stroke_field.StrokeField.at`): ``field`` where its length is
+        1 (:func:`cp_stylize.pipeline.hatching` gives the form's direction, or the picture's horizontal), the
+        picture's structure elsewhere.
     colours : (ink, paper), optional
         sRGB colours of the ink and the paper (default :data:`INK`, :data:`PAPER`).
     seed : int
     """
-
-    columns = None
 
     def __init__(self, mesh, band, atlas, structure, spacing, *, layers=3, angle=90.0, ink=0.5, field=None, level=None,
                  colours=None, seed=0):
@@ -157,6 +164,9 @@ class Hatching:
         points, faces, bary = points[keep], faces[keep], bary[keep]
         normals = mesh.normal(points, faces, bary)
         lines = StrokeField.layers(band, structure, [FIELD_SCALE * self.spacing])[0]
+        lightness = np.ascontiguousarray(np.asarray(structure, np.float32)[:, :1].T)
+        broad = GridGaussian(band, 0.5 * BROAD**2, weights=taper(band.dist, 3.0 * band.h))(lightness)
+        self.columns = broad[0].astype(np.float32)           # read at the texels (see __call__)
         along = lines.at(points, normals, field=field, level=level)
         self.normals, self.piece = normals, mesh.piece[faces]
         self.tree = cKDTree(points)
@@ -269,7 +279,10 @@ class Hatching:
         normals = mesh.normal(points, faces, barys)
         piece = mesh.piece[faces]
         lengths = texel_lengths(mesh, self.atlas, faces)
-        darkness = self.darkness(to_oklab(np.asarray(colours)[:, :3].astype(np.float64))[:, 0])
+        lightness = to_oklab(np.asarray(colours)[:, :3].astype(np.float64))[:, 0]
+        if read is not None:                  # away from the broad light and dark around it
+            lightness = lightness + LOCAL * (lightness - np.asarray(read, np.float64).reshape(len(lightness)))
+        darkness = self.darkness(lightness)
         amount = np.empty(len(points))
         for s in range(0, len(points), _CHUNK):
             part = slice(s, s + _CHUNK)

@@ -290,13 +290,19 @@ def hatch_colours(settings):
 
 
 def hatching(mesh, band, atlas, settings, *, sampled, field, colours):
-    """The :class:`~cp_stylize.hatching.Hatching` of a run: lines along the structure of the picture's
-    ``sampled`` colours, else along ``field`` (the settings' direction) or the picture's level."""
-    level = level_field(band, field, picture_level(mesh, colours)) if colours.textures else None
+    """The :class:`~cp_stylize.hatching.Hatching` of a run: lines along ``field`` (the settings' direction)
+    where it has a direction, else along the picture's horizontal, else along the structure of the
+    picture's ``sampled`` colours; an engraver keeps the lines of an even tone calm."""
+    guide = None if field is None else np.asarray(field, dtype=np.float64)
+    if colours.textures:
+        level = np.asarray(level_field(band, field, picture_level(mesh, colours)), dtype=np.float64)
+        guide = level if guide is None else np.where((np.linalg.norm(guide, axis=1) > 1e-3)[:, None], guide, level)
+    if guide is not None:                 # trusted wholly where it has a direction
+        length = np.linalg.norm(guide, axis=1, keepdims=True)
+        guide = np.divide(guide, length, out=np.zeros_like(guide), where=length > 1e-3)
     return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
                     settings.hatch_spacing, layers=settings.hatch_layers, angle=settings.hatch_angle,
-                    ink=settings.hatch_ink, field=field, level=level, colours=hatch_colours(settings),
-                    seed=settings.seed)
+                    ink=settings.hatch_ink, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
