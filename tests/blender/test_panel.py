@@ -147,6 +147,20 @@ def test_presets_load_save_and_remove_through_the_operators(registered, tmp_path
     assert not (tmp_path / "my_look.toml").exists()
 
 
+def test_the_ink_hatching_preset_keeps_its_direction_and_lines_through_the_panel(registered):
+    """Hatching takes a direction in any mode: the panel's settings give the preset's lines around the form."""
+    from cp_stylize.presets import load_preset
+
+    assert bpy.ops.cp_stylize.preset_load(name="hatching") == {"FINISHED"}
+    shipped, settings = load_preset("hatching"), registered.to_settings()
+    assert (settings.mode, settings.stroke_direction) == (shipped.mode, "max") == ("eed", "max")
+    assert (settings.hatch_layers, settings.hatch_angle) == (shipped.hatch_layers, shipped.hatch_angle)
+    assert (settings.hatch_spacing, settings.hatch_ink, settings.line_width) == pytest.approx(
+        (shipped.hatch_spacing, shipped.hatch_ink, shipped.line_width))
+    registered.hatch_spacing = 0.0            # without hatching (and strokes), EED takes no direction
+    assert registered.to_settings().stroke_direction == "texture"
+
+
 def _png_size(path):
     with open(path, "rb") as fh:
         head = fh.read(24)
