@@ -22,6 +22,12 @@ def _images(obj):
     return tuple(found)
 
 
+def length_text(length):
+    """A length in world units as the scene shows lengths (its unit system and scale: "8.94 mm")."""
+    units = bpy.context.scene.unit_settings
+    return bpy.utils.units.to_string(units.system, "LENGTH", length * units.scale_length, precision=3).strip()
+
+
 def _estimate_text(obj, settings):
     """Lines describing the run's size, cached on what changes them."""
     try:
@@ -33,7 +39,7 @@ def _estimate_text(obj, settings):
         try:
             h, n, nbytes, seconds = operators.estimate(obj, core)
             _estimate_cache.clear()
-            _estimate_cache[key] = [f"Grid spacing {h:.3g} (world units)",
+            _estimate_cache[key] = [f"Grid spacing {length_text(h)}",
                                     f"About {n:,} band points, {nbytes / 2**20:,.0f} MiB",
                                     f"Roughly {max(seconds, 1):,.0f} s"]
         except ValueError as err:

@@ -161,6 +161,22 @@ def test_the_ink_hatching_preset_keeps_its_direction_and_lines_through_the_panel
     assert registered.to_settings().stroke_direction == "texture"
 
 
+def test_lengths_in_the_estimate_read_in_the_scenes_units():
+    from cp_stylize.blender.panel import length_text
+
+    units = bpy.context.scene.unit_settings
+    kept = (units.system, units.scale_length)
+    try:
+        units.system, units.scale_length = "METRIC", 1.0
+        assert length_text(0.00894) == "8.94 mm"
+        units.system = "IMPERIAL"
+        assert length_text(0.00894) == "352 thou"
+        units.system = "NONE"
+        assert length_text(0.00894) == "0.00894"
+    finally:
+        units.system, units.scale_length = kept
+
+
 def _png_size(path):
     with open(path, "rb") as fh:
         head = fh.read(24)
