@@ -94,7 +94,7 @@ LOCAL, BROAD = 1.0, 0.15
 #: The ink and the paper (sRGB) without a palette.
 INK = (0.05, 0.045, 0.05)
 PAPER = (0.97, 0.955, 0.92)
-#: Points this many texels apart at most are summed at once.
+#: Texels whose ink is found at once.
 _CHUNK = 65536
 
 
