@@ -171,12 +171,12 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         default="PACK",
     )
     memory_limit: bpy.props.FloatProperty(
-        name="Memory Limit (GiB)", description="Refuse runs whose estimated memory is above this (GiB); runs that need "
+        name="Max Memory (GiB)", description="Refuse runs whose estimated memory is above this (GiB); runs that need "
                                          "more than this computer has are always refused",
         default=8.0, min=0.1, max=1024.0, precision=1,
     )
     time_limit: bpy.props.FloatProperty(
-        name="Time Limit (min)", description="Refuse runs whose estimated time is above this (minutes)",
+        name="Max Time (min)", description="Refuse runs whose estimated time is above this (minutes)",
         default=15.0, min=0.5, max=24 * 60.0, precision=1,
     )
     keep: bpy.props.BoolProperty(

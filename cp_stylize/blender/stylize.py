@@ -178,10 +178,11 @@ def check_limits(estimate, output):
         raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: lower the quality")
     if estimate.bytes > output.memory_limit:
         raise StylizeError(f"{need}, above the memory limit of {output.memory_limit / 2**30:.1f} GiB: "
-                           "lower the quality or raise the limit")
+                           "lower the quality or raise Max Memory (under Output)")
     if estimate.seconds > output.time_limit:
         raise StylizeError(f"this run would take roughly {duration(estimate.seconds)}, above the time limit of "
-                           f"{duration(output.time_limit)}: lower the quality or the time, or raise the limit")
+                           f"{duration(output.time_limit)}: lower the quality or the time, or raise Max Time "
+                           "(under Output)")
 
 
 def _check_writable(material, output):

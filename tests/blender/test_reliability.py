@@ -1394,7 +1394,7 @@ def test_a_run_estimated_above_the_time_limit_is_refused(addon, monkeypatch):
     before = snapshot()
     message = run_error()
     assert message.startswith("this run would take roughly ") and message.endswith(
-        ", above the time limit of 15 min: lower the quality or the time, or raise the limit")
+        ", above the time limit of 15 min: lower the quality or the time, or raise Max Time (under Output)")
     assert " h " in message  # hours
     assert_unchanged(before, snapshot())
 
