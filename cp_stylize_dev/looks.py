@@ -478,6 +478,30 @@ def tone_correlation(ink, lightness, mask, window=16):
     return float(np.corrcoef(blocks(ink)[whole], blocks(lightness)[whole])[0, 1])
 
 
+def kept_hatchings():
+    """A context manager that yields a list, which collects each :class:`~cp_stylize.hatching.Hatching` the runs
+    inside it make (for the measures that read a run's lines on the surface)."""
+    import contextlib
+
+    from cp_stylize import hatching
+
+    @contextlib.contextmanager
+    def kept():
+        made, original = [], hatching.Hatching.__init__
+
+        def keep(self, *args, **kwargs):
+            original(self, *args, **kwargs)
+            made.append(self)
+
+        hatching.Hatching.__init__ = keep
+        try:
+            yield made
+        finally:
+            hatching.Hatching.__init__ = original
+
+    return kept()
+
+
 def hatch_spacings(hatch, probes=400, seed=0, darkness=0.3, reach=4.0):
     """The lines' spacing measured on the surface: from ``probes`` random points of a run's
     :class:`~cp_stylize.hatching.Hatching`, each walks ``reach`` spacings across the first layer's lines (along
@@ -524,18 +548,8 @@ def _hatching(subject_name, subject, source, mask, texel, size, out_dir, log):
     from cp_stylize.texture import write_png
 
     settings = load_preset("hatching")
-    made = []
-    original = module.Hatching.__init__
-
-    def keep(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        made.append(self)
-
-    module.Hatching.__init__ = keep
-    try:
+    with kept_hatchings() as made:
         ours = _run(subject, settings.replace(line_width=0.0), size)
-    finally:
-        module.Hatching.__init__ = original
     write_png(os.path.join(out_dir, f"{subject_name}_hatching.png"), ours.image)
     ink, paper = hatch_colours(settings)
     lightness = to_oklab(np.clip(source.image[..., :3], 0, 1).astype(np.float64))[..., 0]

@@ -8,7 +8,7 @@ from cp_stylize.mesh import parametric_mesh
 from cp_stylize.pipeline import ColourInput, hatch_colours, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
 from cp_stylize.surfaces import Torus
-from cp_stylize_dev.looks import city_plane
+from cp_stylize_dev.looks import city_plane, ink_share, kept_hatchings, paper_or_ink
 
 INK, PAPER = np.asarray(hatching.INK), np.asarray(hatching.PAPER)
 
@@ -23,8 +23,7 @@ def _run(image, settings, mesh=None):
 
 def _ink(image):
     """How far each texel's colour lies from the paper towards the ink (H, W)."""
-    span = INK - PAPER
-    return np.clip((np.asarray(image)[..., :3] - PAPER) @ span / (span @ span), 0.0, 1.0)
+    return ink_share(image, INK, PAPER)
 
 
 #: Lines along the plane's x axis (the image's rows), 0.04 apart: about 11 texels of a 256 x 256 image across them.
@@ -72,9 +71,7 @@ def test_darker_tones_take_more_ink_and_a_second_layer_crosses_the_first():
     # the lightest stay paper; the darkest near-solid (two layers cover up to 1 - (1 - WIDEST) (1 - DEEPEST))
     assert columns[:10].mean() < 0.02 and columns[-10:].mean() > 0.6
     # texels are paper or ink: at most anti-aliased edges in between
-    colours = result.image[covered][:, :3]
-    near = np.minimum(np.abs(colours - PAPER).max(axis=1), np.abs(colours - INK).max(axis=1)) <= 0.15
-    assert near.mean() > 0.8
+    assert paper_or_ink(result.image, covered, INK, PAPER, reach=0.15) > 0.8
     # in the darks a second layer crosses the first: the ink changes along the rows too
     dark = ink[np.flatnonzero(covered.all(axis=1))[8:-8]][:, 200:240]
     light = ink[np.flatnonzero(covered.all(axis=1))[8:-8]][:, 70:110]
@@ -100,19 +97,9 @@ def test_phase_alignment_leaves_few_breaks_in_the_lines():
     """With a calm direction field, aligned kernels sum to one plane wave: the phase rises at the set rate
     nearly everywhere, where random kernel phases would break the lines at every few spacings."""
     grey = np.full((16, 16, 3), 0.5, np.float32)
-    found = {}
-    original = hatching.Hatching.__init__
-
-    def keep(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        found["hatching"] = self
-
-    hatching.Hatching.__init__ = keep
-    try:
+    with kept_hatchings() as made:
         _run(grey, _LINES.replace(image_size=64))
-    finally:
-        hatching.Hatching.__init__ = original
-    h = found["hatching"]
+    h = made[0]
     rng = np.random.default_rng(0)
     at = np.column_stack([rng.uniform(-0.6, 0.6, 2000), rng.uniform(-0.25, 0.25, 2000), np.zeros(2000)])
     at *= 2.0 / np.sqrt(5.0)

@@ -196,28 +196,18 @@ def test_ink_hatching_keeps_the_subject_in_paper_and_ink_with_even_lines(torus):
     """The Ink Hatching preset on a picture: texels on paper or ink, ink where the picture is dark, the lines'
     spacing even on the surface, the subject's edges kept at the lines' spacing, and the lines on across the
     UV seam."""
-    from cp_stylize import hatching as module
     from cp_stylize.oklab import to_oklab
     from cp_stylize.pipeline import hatch_colours
-    from cp_stylize_dev.looks import (edge_survival, hatch_spacings, ink_share, paper_or_ink, seam_step,
-                                      tone_correlation)
+    from cp_stylize_dev.looks import (edge_survival, hatch_spacings, ink_share, kept_hatchings, paper_or_ink,
+                                      seam_step, tone_correlation)
 
     size = 512
     picture = np.roll(_picture(size), 3, axis=1)
     vertices, faces, uvs = torus
     colours = ColourInput(textures=[Texture(picture, uvs, np.ones(len(faces), bool))])
     settings = load_preset("hatching").replace(spacing=0.016, image_size=size)
-    made, original = [], module.Hatching.__init__
-
-    def keep(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        made.append(self)
-
-    module.Hatching.__init__ = keep
-    try:
+    with kept_hatchings() as made:
         result = stylize(vertices, faces, colours, settings, uvs=uvs)
-    finally:
-        module.Hatching.__init__ = original
     source = stylize(vertices, faces, colours, StylizeSettings(mode="eed", T=1e-6, spacing=0.016, image_size=size),
                      uvs=uvs)
     mask = result.atlas.coverage.reshape(size, size)
