@@ -25,7 +25,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value"]
+           "DIRECTED_MODES", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -289,6 +289,12 @@ NOISE_MAPPINGS = {
 
 #: The modes whose strokes can follow a direction (:data:`DIRECTIONS`).
 DIRECTED_MODES = ("ced", "flow")
+
+
+def takes_direction(mode, strokes=0.0, hatch_spacing=0.0):
+    """Whether a run follows a direction (:data:`DIRECTIONS`): in the modes of :data:`DIRECTED_MODES`, and in
+    any mode with brush strokes or hatching."""
+    return mode in DIRECTED_MODES or strokes > 0 or hatch_spacing > 0
 
 #: Mode names, in the core's order.
 MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami", "flow")

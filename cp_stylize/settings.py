@@ -17,7 +17,7 @@ import numbers
 from collections.abc import Mapping
 
 from .parameters import (DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, SEED_LIMITS,
-                         check_value)
+                         check_value, takes_direction)
 
 __all__ = ["StylizeSettings", "check_fields", "check_colour", "check_parameter", "is_number", "IMAGE_SIZES", "MARGINS"]
 
@@ -252,8 +252,8 @@ class StylizeSettings:
                              "colour a weight above 0")
 
     def _check_direction(self):
-        if self.direction not in (None, "texture") and self.mode not in DIRECTED_MODES and not self.strokes \
-                and not self.hatch_spacing:
+        if self.direction not in (None, "texture") and not takes_direction(self.mode, self.strokes,
+                                                                           self.hatch_spacing):
             raise ValueError(f"direction {self.direction!r} is for the modes {list(DIRECTED_MODES)}, brush strokes "
                              f"and hatching, not {self.mode!r} without either")
         if self.mode == "flow" and self.direction == "texture":

@@ -4,7 +4,7 @@ import os
 
 import bpy
 
-from ..parameters import DIRECTED_MODES, FILTERS
+from ..parameters import FILTERS, takes_direction
 from . import operators
 from .properties import SIZE_VIEWS, filter_property, object_scale, size_property
 
@@ -152,7 +152,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         layout = _split(self.layout)
         layout.prop(settings, "mode")
         obj = context.active_object
-        if settings.mode in DIRECTED_MODES or settings.strokes > 0 or settings.hatch_spacing > 0:
+        if takes_direction(settings.mode, settings.strokes, settings.hatch_spacing):
             layout.prop(settings, "direction")
             if settings.direction == "axis":
                 layout.prop(settings, "axis")

@@ -22,7 +22,8 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS
+from ..parameters import (DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS,
+                          takes_direction)
 
 #: Grid spacing relative to an object whose diameter is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
@@ -193,8 +194,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         from ..settings import StylizeSettings
 
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
-        directed = self.mode in DIRECTED_MODES or self.strokes > 0 or self.hatch_spacing > 0
-        direction = self.direction if directed else None
+        direction = self.direction if takes_direction(self.mode, self.strokes, self.hatch_spacing) else None
         # the axis where it is used or usable (a zeroed axis must not stop an attribute run), so a preset keeps it
         axis = {"axis": tuple(self.axis)} if direction == "axis" or any(self.axis) else {}
         run = {name: getattr(self, PROPERTY_NAMES.get(name, name)) for name in RUN}
