@@ -213,14 +213,12 @@ class Hatching:
         return phases
 
     def phase(self, layer, at, normals, piece):
-        """The phase (M,) of layer ``layer`` at surface points ``at`` (M, 3), and its sum's share of the
-        kernels' weight there (M,) (near 0 where the kernels cancel)."""
+        """The phase (M,) of layer ``layer`` at surface points ``at`` (M, 3) with normals (M, 3) on pieces (M,)."""
         near, index = self.tree.query(at, k=NEIGHBOURS, distance_upper_bound=REACH * self.sigma)
         kernels = self._layers[layer]
         reference = kernels.across[np.minimum(index[:, 0], len(kernels.centres) - 1)]
         waves, sign, safe = self._waves(kernels, at, normals, piece, near, index, reference)
-        total = np.sum(waves * self._signed(kernels.phases[safe], sign), axis=1)
-        return np.angle(total), np.abs(total) / np.maximum(np.abs(waves).sum(axis=1), 1e-12)
+        return np.angle(np.sum(waves * self._signed(kernels.phases[safe], sign), axis=1))
 
     def darkness(self, lightness):
         """The ink each lightness (M,) asks for, in [0, 1]: its place between the picture's lightest and darkest
@@ -261,7 +259,7 @@ class Hatching:
             here = widths[k] > 0
             if not here.any():
                 continue
-            phase, _ = self.phase(k, at[here], normals[here], piece[here])
+            phase = self.phase(k, at[here], normals[here], piece[here])
             width = np.maximum(widths[k][here], LINE_MIN)
             distance = np.abs(phase) / self.frequency
             line = np.clip(0.5 + (0.5 * width * self.spacing - distance) / lengths[here], 0.0, 1.0)

@@ -46,9 +46,9 @@ the extension)::
     detail = 0.5          # 0: the strongest edges alone; 1: most of them
 
     [hatching]            # optional: ink hatching, lines of ink on paper (cp_stylize.hatching)
-    spacing = 0.012       # the lines' spacing (object 2 units across); 0: none
-    layers = 2            # layers of lines in the darkest tones
-    angle = 50            # degrees between the layers
+    spacing = 0.016       # the lines' spacing (object 2 units across); 0: none
+    layers = 3            # layers of lines in the darkest tones
+    angle = 90            # degrees between the first layer and the second
     ink = 0.5             # how much of the tones take ink
 
     [output]              # optional

@@ -106,16 +106,16 @@ def test_phase_alignment_leaves_few_breaks_in_the_lines():
     normals = np.tile([0.0, 0.0, 1.0], (2000, 1))
     piece = np.zeros(2000, np.int32)
     step = 0.05 * h.spacing
-    before, _ = h.phase(0, at, normals, piece)
-    after, _ = h.phase(0, at + [0.0, step, 0.0], normals, piece)
+    before = h.phase(0, at, normals, piece)
+    after = h.phase(0, at + [0.0, step, 0.0], normals, piece)
     rate = np.abs(np.angle(np.exp(1j * (after - before)))) / step
     assert np.mean(np.abs(rate / h.frequency - 1.0) < 0.15) > 0.95
     # the same kernels with random phases: many more breaks
     kernels = h._layers[0]
     aligned = kernels.phases
     kernels.phases = np.exp(2j * np.pi * rng.random(len(aligned)))
-    before, _ = h.phase(0, at, normals, piece)
-    after, _ = h.phase(0, at + [0.0, step, 0.0], normals, piece)
+    before = h.phase(0, at, normals, piece)
+    after = h.phase(0, at + [0.0, step, 0.0], normals, piece)
     kernels.phases = aligned
     rate_random = np.abs(np.angle(np.exp(1j * (after - before)))) / step
     steady = np.mean(np.abs(rate / h.frequency - 1.0) < 0.15)
