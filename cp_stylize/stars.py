@@ -24,9 +24,14 @@ so a star crosses UV seams whole:
   rings a stroke's width apart of :data:`RINGS` colours by turns, fading out
   over the halo's outer :data:`FADE`.  Each star's radius is drawn between :data:`SIZES` times the
   radius asked for: the stars differ in size as the painting's do;
+- **each its own**, as no two of the painting's stars are alike: its rings
+  are lobed (:data:`WOBBLE`), a little wider or narrower apart (:data:`RING_SPREAD`),
+  begin with either colour, and its core runs from :data:`CORE` at the centre
+  to a deeper yellow (:data:`CORE_RIM`) at its edge;
 - **with a field** the strokes follow (``field=`` of
-  :func:`cp_stylize.painting.painting`): circles about each star's centre, so
-  strokes ring it.
+  :func:`cp_stylize.painting.painting`): about each star's centre, each
+  star turning its own way, so strokes ring the halo, a little loose
+  (:data:`HALO_TILT`), and turn in a little more over the core (:data:`CORE_TILT`).
 
 A point belongs to a star where it lies within the halo (straight-line distance) and its normal is
 within :data:`FACING` of the star's: the other side of a thin part, or a sheet that passes close, is
@@ -44,7 +49,7 @@ __all__ = ["Stars", "find_stars", "on_band", "on_picture"]
 #: A star's halo reaches this many core radii from its centre.
 HALO = 2.6
 #: Two stars' halos may overlap by at most this share of the sum of their reaches.
-OVERLAP = 0.1
+OVERLAP = 0.0
 #: A star's core may be lighter or darker than its halo by at most this much (OKLab; smoothed).
 MIN_CONTRAST = 0.03
 #: Stars go where the halo's smoothed OKLab lightness is at least this ...
@@ -61,6 +66,9 @@ SIZES = (1.5, 0.5)
 #: The core's colour and the halo rings' colours, taken by turns (sRGB, in the picture: the palette
 #: mapping makes them the palette's own).
 CORE = (1.0, 0.94, 0.62)
+#: The core's colour at its edge: a deeper yellow of about its lightness, so the core reads as a whirl of two
+#: yellows, not a flat disc (and draws no ink line between them).
+CORE_RIM = (1.0, 0.87, 0.4)
 RINGS = ((1.0, 0.96, 0.78), (0.78, 0.87, 1.0))
 #: The core is this share of a star's radius; rings fill the rest of the halo.
 CORE_SHARE = 0.6
@@ -69,19 +77,44 @@ CORE_SHARE = 0.6
 FACING = 0.5
 #: The halo's rings fade out over this share of the halo, towards its edge.
 FADE = 0.35
+#: A star's rings are lobed: each star's shapes are drawn in by up to this share of their radius, in
+#: 3 to 5 lobes about its centre.
+WOBBLE = (0.06, 0.16)
+#: Each star's rings are this share wider or narrower apart than asked, at most.
+RING_SPREAD = 0.2
+#: The strokes' angle to the circles about a star (radians, each star a draw between these): rings of dabs
+#: about it, a little loose in the halo and more in the core (a star is a core ringed by halos; the spiral
+#: is the sky's); each star turns one way or the other.
+HALO_TILT = (0.03, 0.15)
+CORE_TILT = (0.3, 0.5)
 #: Of the places a star may go, this many of the lightest are looked at.
 CANDIDATES = 20000
 
 
 class Stars:
     """Stars at ``centres`` (k, 3) with unit ``normals`` (k, 3) and core ``radii`` (k,), their halos'
-    rings ``ring`` apart (see the module's notes)."""
+    rings about ``ring`` apart (see the module's notes); ``seed`` draws each star's own shape."""
 
-    def __init__(self, centres, normals, radii, ring):
+    def __init__(self, centres, normals, radii, ring, seed=0):
         self.centres = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
         self.normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         self.radii = np.broadcast_to(np.asarray(radii, dtype=np.float64), (len(self.centres),)).copy()
         self.ring = float(ring)
+        k = len(self.centres)
+        rng = np.random.default_rng([int(seed), 11])
+        self.rings = self.ring * (1.0 + RING_SPREAD * rng.uniform(-1.0, 1.0, k))
+        self.first = rng.integers(0, len(RINGS), k)                      # the colour of the innermost ring
+        self.wobble = rng.uniform(*WOBBLE, k)
+        self.lobes = rng.integers(3, 6, k)
+        self.turn = rng.uniform(0.0, 2.0 * np.pi, k)
+        spin = np.where(rng.random(k) < 0.5, -1.0, 1.0)
+        self.halo_tilt = spin * rng.uniform(*HALO_TILT, k)
+        self.core_tilt = spin * rng.uniform(*CORE_TILT, k)
+        # a frame of each star's tangent plane, for the angle about its centre
+        helper = np.where(np.abs(self.normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        self.axis_u = np.cross(self.normals, helper)
+        self.axis_u /= np.maximum(np.linalg.norm(self.axis_u, axis=1, keepdims=True), 1e-12)
+        self.axis_v = np.cross(self.normals, self.axis_u)
 
     def __len__(self):
         return len(self.centres)
@@ -102,6 +135,15 @@ class Stars:
             which[inside[away]], distance[inside[away]] = -1, np.inf
         return which, distance
 
+    def _shaped(self, points, which, d):
+        """The distances ``d`` of ``points`` (m, 3) from their stars ``which`` (m,), stretched by each star's
+        lobes: a shape of the star's is its circle drawn in, by at most its :data:`WOBBLE`, between lobes."""
+        offset = points - self.centres[which]
+        angle = np.arctan2(np.einsum("ij,ij->i", offset, self.axis_v[which]),
+                           np.einsum("ij,ij->i", offset, self.axis_u[which]))
+        lobe = 0.5 * (1.0 + np.sin(self.lobes[which] * angle + self.turn[which]))
+        return d / (1.0 - self.wobble[which] * lobe)
+
     def paint(self, points, normals, colours):
         """``colours`` (M, C, sRGB) of surface ``points`` (M, 3), with the stars painted over them (a copy);
         ``normals(index)``: the unit normals (m, 3) of the points ``index``."""
@@ -112,21 +154,26 @@ class Stars:
         inside = np.flatnonzero(which >= 0)
         if not len(inside):
             return out
-        d, r = d[inside], self.radii[which[inside]]
+        star = which[inside]
+        d, r = self._shaped(np.asarray(points, dtype=np.float64)[inside], star, d[inside]), self.radii[star]
         inner = CORE_SHARE * r
         core = np.clip((1.2 * inner - d) / (0.2 * inner), 0.0, 1.0)     # the core, its edge soft
-        lane = np.floor(np.maximum(d - inner, 0.0) / self.ring).astype(np.int64) % len(RINGS)
+        lane = (np.floor(np.maximum(d - inner, 0.0) / self.rings[star]).astype(np.int64)
+                + self.first[star]) % len(RINGS)
         fade = np.clip((HALO * r - d) / (FADE * (HALO - 1.0) * r), 0.0, 1.0)
         ring = np.asarray(RINGS, dtype=np.float32)[lane]
-        colour = core[:, None] * np.float32(CORE) + (1.0 - core[:, None]) * ring
+        rim = np.clip(d / inner, 0.0, 1.0)[:, None] ** 2                # white-hot centre, deeper yellow edge
+        core_colour = np.float32(CORE) + rim * (np.float32(CORE_RIM) - np.float32(CORE))
+        colour = core[:, None] * core_colour + (1.0 - core[:, None]) * ring
         amount = np.maximum(core, fade)[:, None]
         out[inside, :3] = out[inside, :3] + amount * (colour - out[inside, :3])
         return out
 
     def field(self, points, normals):
         """The strokes' directions about the stars (M, 3) at surface ``points`` (M, 3) (``normals`` as for
-        :meth:`paint`): unit circles about each star's centre, in the tangent plane, over its halo
-        and a little beyond (their length falls to 0 from :data:`HALO` to 1.3 :data:`HALO` radii); 0
+        :meth:`paint`): unit vectors in the tangent plane about each star's centre, at the star's angle
+        to the circles (:data:`HALO_TILT` in its halo, :data:`CORE_TILT` in its core), over its
+        halo and a little beyond (their length falls to 0 from :data:`HALO` to 1.3 :data:`HALO` radii); 0
         elsewhere."""
         points = np.asarray(points, dtype=np.float64)
         out = np.zeros((len(points), 3))
@@ -136,11 +183,17 @@ class Stars:
         inside = np.flatnonzero((which >= 0) & (d > 1e-9))
         if not len(inside):
             return out
-        around = np.cross(normals(inside), points[inside] - self.centres[which[inside]])
+        star, normal = which[inside], normals(inside)
+        around = np.cross(normal, points[inside] - self.centres[star])
         around /= np.maximum(np.linalg.norm(around, axis=1, keepdims=True), 1e-12)
-        reach = HALO * self.radii[which[inside]]
+        outward = np.cross(around, normal)
+        inner = CORE_SHARE * self.radii[star]
+        into_core = np.clip((1.2 * inner - d[inside]) / (0.4 * inner), 0.0, 1.0)
+        tilt = self.halo_tilt[star] + into_core * (self.core_tilt[star] - self.halo_tilt[star])
+        direction = np.cos(tilt)[:, None] * around + np.sin(tilt)[:, None] * outward
+        reach = HALO * self.radii[star]
         trust = np.clip((1.3 * reach - d[inside]) / (0.3 * reach), 0.0, 1.0)
-        out[inside] = trust[:, None] * around
+        out[inside] = trust[:, None] * direction
         return out
 
 
@@ -191,7 +244,7 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
 
     from .smoothing import GridGaussian
 
-    none = Stars(np.zeros((0, 3)), np.zeros((0, 3)), radius, ring)
+    none = Stars(np.zeros((0, 3)), np.zeros((0, 3)), radius, ring, seed)
     if count <= 0 or band.size == 0:
         return none
     lightness = to_oklab(np.asarray(colours).reshape(band.size, -1)[:, :3])[:, 0].astype(np.float32)
@@ -225,4 +278,4 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     if not len(picked):
         return none
     normals = mesh.normal(band.cp[picked].astype(np.float64), band.face[picked], band.bary[picked])
-    return Stars(band.cp[picked], normals, radii[chosen], ring)
+    return Stars(band.cp[picked], normals, radii[chosen], ring, seed)

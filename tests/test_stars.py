@@ -9,7 +9,7 @@ from cp_stylize.mesh import TriangleMesh, parametric_mesh
 from cp_stylize.oklab import to_oklab
 from cp_stylize.pipeline import ColourInput, STAR_RADIUS, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
-from cp_stylize.stars import CORE, HALO, OVERLAP, SIZES, Stars, _border_points, find_stars, on_band
+from cp_stylize.stars import CORE, CORE_SHARE, CORE_TILT, HALO, HALO_TILT, OVERLAP, SIZES, Stars, _border_points, find_stars, on_band
 
 
 @pytest.fixture(scope="module")
@@ -92,8 +92,33 @@ def test_a_star_is_a_core_ringed_by_alternating_halos_and_strokes_circle_it():
     length = np.linalg.norm(field, axis=1)
     np.testing.assert_allclose(length[(r > 0.01) & (r < HALO * 0.1)], 1.0, atol=1e-9)
     assert np.all(length[r > 1.3 * HALO * 0.1] == 0)
-    np.testing.assert_allclose(field[:, 0], 0.0, atol=1e-12)                     # at right angles to the radius
+    # about the centre, each star at its own angle to the circles: a loose spiral in the halo, a whirl in the core
+    across = np.abs(field[:, 0]) / np.maximum(length, 1e-12)                      # the sine of the angle
+    halo = (r > 1.3 * CORE_SHARE * 0.1) & (r < HALO * 0.1)
+    assert np.all((across[halo] >= np.sin(HALO_TILT[0]) - 1e-9) & (across[halo] <= np.sin(HALO_TILT[1]) + 1e-9))
+    core = (r > 0.005) & (r < 0.6 * CORE_SHARE * 0.1)
+    assert np.all(across[core] >= np.sin(CORE_TILT[0]) - 1e-9)
     np.testing.assert_allclose(field[:, 2], 0.0, atol=1e-12)                     # in the tangent plane
+
+
+def test_no_two_stars_are_alike_and_their_rings_are_not_circles():
+    centres = [[-0.5, 0.0, 1.0], [0.5, 0.0, 1.0]]
+    stars = Stars(centres, [[0.0, 0.0, 1.0]] * 2, 0.1, 0.02, seed=3)
+    angle = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+    grey = np.full((len(angle), 3), 0.1, np.float32)
+    up = np.tile([0.0, 0.0, 1.0], (len(angle), 1))
+    rings = []
+    for centre in centres:
+        for radius in (0.07, 0.09, 0.11, 0.13):     # circles through the halo: each crosses a lobed ring's edge
+            points = np.column_stack([centre[0] + radius * np.cos(angle), radius * np.sin(angle),
+                                      np.ones_like(angle)])
+            rings.append(stars.paint(points, lambda i: up[i], grey))
+    crossed = [np.ptp(ring, axis=0).max() > 0.1 for ring in rings]
+    assert sum(crossed) >= 4                       # the colour changes along a circle about the centre
+    assert not np.allclose(np.stack(rings[:4]), np.stack(rings[4:]), atol=0.05)   # the two stars differ
+    # the same seed gives the same stars
+    again = Stars(centres, [[0.0, 0.0, 1.0]] * 2, 0.1, 0.02, seed=3)
+    np.testing.assert_array_equal(again.paint(points, lambda i: up[i], grey), rings[-1])
 
 
 def test_a_star_on_the_uv_seam_is_painted_whole_on_both_sides(sphere):
