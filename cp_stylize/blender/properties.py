@@ -172,7 +172,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         default="PACK",
     )
     memory_limit: bpy.props.FloatProperty(
-        name="Max Memory (GiB)", description="Refuse runs whose estimated memory is above this (GiB); runs that need "
+        name="Max RAM (GiB)", description="Refuse runs whose estimated memory is above this (GiB); runs that need "
                                          "more than this computer has are always refused",
         default=8.0, min=0.1, max=1024.0, precision=1,
     )

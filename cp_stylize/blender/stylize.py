@@ -178,7 +178,7 @@ def check_limits(estimate, output):
         raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: lower the quality")
     if estimate.bytes > output.memory_limit:
         raise StylizeError(f"{need}, above the memory limit of {output.memory_limit / 2**30:.1f} GiB: "
-                           "lower the quality or raise Max Memory (under Output)")
+                           "lower the quality or raise Max RAM (under Output)")
     if estimate.seconds > output.time_limit:
         raise StylizeError(f"this run would take roughly {duration(estimate.seconds)}, above the time limit of "
                            f"{duration(output.time_limit)}: lower the quality or the time, or raise Max Time "

@@ -384,7 +384,7 @@ def test_a_large_input_image_counts_in_the_estimate_and_the_limit_stops_the_run_
     before = snapshot()
     assert error(bpy.ops.object.cp_stylize) == (
         f"this run needs about {with_image / 2**30:.1f} GiB (about {n:,} band points), above the memory limit of "
-        f"{addon.memory_limit:.1f} GiB: lower the quality or raise Max Memory (under Output)")
+        f"{addon.memory_limit:.1f} GiB: lower the quality or raise Max RAM (under Output)")
     assert_unchanged(before, snapshot())
 
 
