@@ -37,7 +37,8 @@ surface whatever the charts' scale:
   its darkest (:data:`DARKEST`), the mid-tones open (:data:`TONE_POWER`).
   The first layer's lines widen with it up to :data:`WIDEST` of a spacing;
   from there the second layer covers what is still asked for, then the
-  third, which swells up to :data:`DEEPEST`, so the ink builds up smoothly,
+  third, which swells up to ``swell`` (:data:`DEEPEST` by default; 1 fills the
+  darkest tones with solid ink cut by white lines, as a woodcut's), so the ink builds up smoothly,
   layer on layer, without patches where a layer switches on.  A layer that
   should cover less than its narrowest line (:data:`LINE_MIN`) is drawn as
   dashes of that line, as many as make up its share (a smooth noise on the
@@ -70,8 +71,8 @@ NEIGHBOURS = 24
 SWEEPS = 40
 #: The direction follows the picture's structure over this many spacings.
 FIELD_SCALE = 8.0
-#: A layer's lines are at most this wide (a share of the spacing); the last layer's swell to :data:`DEEPEST`
-#: in the darkest tones, so that those read as near-solid ink.
+#: A layer's lines are at most this wide (a share of the spacing); the last layer's swell to ``swell`` (by
+#: default :data:`DEEPEST`) in the darkest tones, so that those read as near-solid ink.
 WIDEST, DEEPEST = 0.35, 0.55
 #: The narrowest line (a share of the spacing): a layer that should cover less is drawn as dashes this wide.
 LINE_MIN = 0.15
@@ -132,6 +133,8 @@ class Hatching:
         Degrees the second layer is turned from the first (the third: half of it).
     ink : float in [0, 1]
         How much ink the tones take: 0.5 the picture's own values, towards 1 darker, towards 0 lighter.
+    swell : float in [WIDEST, 1]
+        How wide the last layer's lines grow in the darkest tones (a share of the spacing).
     field, level : ndarray, shape (N, 3), optional
         Where the lines run (see :meth:`cp_stylize.stroke_field.StrokeField.at`): ``field`` where its length is
         1 (:func:`cp_stylize.pipeline.hatching` gives the form's direction, or the picture's horizontal), the
@@ -141,15 +144,17 @@ class Hatching:
     seed : int
     """
 
-    def __init__(self, mesh, band, atlas, structure, spacing, *, layers=3, angle=90.0, ink=0.5, field=None, level=None,
-                 colours=None, seed=0):
+    def __init__(self, mesh, band, atlas, structure, spacing, *, layers=3, angle=90.0, ink=0.5, swell=DEEPEST,
+                 field=None, level=None, colours=None, seed=0):
         from scipy.spatial import cKDTree
 
         from .baking import texel_lengths
 
         if not 1 <= int(layers) <= 3:
             raise ValueError(f"hatching layers must be 1 to 3, got {layers!r}")
-        self.mesh, self.atlas, self.layers = mesh, atlas, int(layers)
+        if not WIDEST <= float(swell) <= 1.0:
+            raise ValueError(f"hatching swell must be {WIDEST} to 1, got {swell!r}")
+        self.mesh, self.atlas, self.layers, self.swell = mesh, atlas, int(layers), float(swell)
         longest = float(np.quantile(texel_lengths(mesh, atlas, atlas.face), 0.9)) if len(atlas.face) else 0.0
         self.spacing = max(float(spacing), MIN_TEXELS * longest)
         self.shift = float(ink) - 0.5
@@ -232,11 +237,11 @@ class Hatching:
     def widths(self, darkness):
         """Each layer's line width (layers, M) as a share of the spacing, for the ink ``darkness`` (M,) asks
         for: each layer in turn covers what the layers before leave of it, up to :data:`WIDEST` (the last up to
-        :data:`DEEPEST`), so the ink builds up smoothly, layer on crossing layer, with the tone."""
+        ``swell``), so the ink builds up smoothly, layer on crossing layer, with the tone."""
         clear = np.ones_like(darkness)
         found = []
         for k in range(self.layers):
-            widest = DEEPEST if k == self.layers - 1 else WIDEST
+            widest = self.swell if k == self.layers - 1 else WIDEST
             width = np.clip(1.0 - (1.0 - darkness) / np.maximum(clear, 1e-9), 0.0, widest)
             clear = clear * (1.0 - width)
             found.append(width)

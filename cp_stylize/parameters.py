@@ -201,6 +201,10 @@ RUN = {p.name: p for p in (
                                   "lightest clean paper and its darkest near-solid ink; towards 0 lighter, towards "
                                   "1 darker)", 0.0, 1.0, 0.5,
               precision=2, file=("hatching", "ink")),
+    Parameter("hatch_swell", "Swell", "Ink hatching: how wide the last layer's lines swell in the darkest tones, "
+                                      "as a share of their spacing (0.55: paper stays between the lines; 1: solid "
+                                      "ink cut by white lines, as in a woodcut)", 0.35, 1.0, 0.55,
+              precision=2, file=("hatching", "swell")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),

@@ -302,7 +302,7 @@ def hatching(mesh, band, atlas, settings, *, sampled, field, colours):
         guide = np.divide(guide, length, out=np.zeros_like(guide), where=length > 1e-3)
     return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
                     settings.hatch_spacing, layers=settings.hatch_layers, angle=settings.hatch_angle,
-                    ink=settings.hatch_ink, field=guide, colours=hatch_colours(settings), seed=settings.seed)
+                    ink=settings.hatch_ink, swell=settings.hatch_swell, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):

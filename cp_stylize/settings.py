@@ -214,6 +214,7 @@ class StylizeSettings:
     hatch_layers: int = RUN["hatch_layers"].default
     hatch_angle: int = RUN["hatch_angle"].default
     hatch_ink: float = RUN["hatch_ink"].default
+    hatch_swell: float = RUN["hatch_swell"].default
     line_width: float = RUN["line_width"].default   # ink lines (cp_stylize.lines); 0: none
     line_detail: float = RUN["line_detail"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]

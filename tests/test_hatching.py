@@ -122,6 +122,33 @@ def test_phase_alignment_leaves_few_breaks_in_the_lines():
     assert np.mean(np.abs(rate_random / h.frequency - 1.0) < 0.15) < steady - 0.1
 
 
+def test_full_swell_fills_the_darks_with_solid_ink_cut_by_tapering_white_lines():
+    # one layer; the darkest tones leave paper between the lines at the default swell, none at swell 1
+    ramp = np.repeat(np.linspace(0.95, 0.05, 64)[None, :, None], 64, axis=0).repeat(3, axis=2)  # dark to the right
+    settings = _LINES.replace(hatch_ink=0.5)
+    rows = None
+    shares = {}
+    for swell in (hatching.DEEPEST, 1.0):
+        result, covered = _run(ramp, settings.replace(hatch_swell=swell))
+        rows = np.flatnonzero(covered.all(axis=1))[8:-8] if rows is None else rows
+        shares[swell] = _ink(result.image)[rows]
+    darkest = slice(246, 252)                                       # the ramp's darkest 2 % (Ink 0.5: solid)
+    assert shares[hatching.DEEPEST][:, darkest].mean() == pytest.approx(hatching.DEEPEST, abs=0.03)
+    assert shares[1.0][:, darkest].mean() > 0.95                    # solid black
+    # the white lines between taper out towards the darks: the paper's share falls steadily along the ramp
+    paper = 1.0 - shares[1.0].mean(axis=0)
+    steps = [paper[c:c + 16].mean() for c in range(120, 248, 16)]
+    assert np.all(np.diff(steps) < 0.01) and steps[0] - steps[-1] > 0.3
+    # the lights are the same at either swell: only the last layer's widest lines differ
+    np.testing.assert_allclose(shares[1.0][:, 8:60], shares[hatching.DEEPEST][:, 8:60], atol=1e-6)
+
+
+def test_the_woodcut_preset_is_one_layer_swelling_to_solid_black():
+    preset = load_preset("woodcut")
+    assert preset.name == "Woodcut" and preset.hatch_layers == 1 and preset.hatch_swell == 1.0
+    assert preset.hatch_spacing > load_preset("hatching").hatch_spacing and preset.line_width > 0
+
+
 def test_the_ink_and_paper_are_the_palettes_darkest_and_lightest():
     settings = _LINES.replace(palette=((0.9, 0.85, 0.7), (0.1, 0.05, 0.2), (0.5, 0.5, 0.5)))
     ink, paper = hatch_colours(settings)
@@ -135,6 +162,8 @@ def test_bad_hatching_settings_are_refused_with_their_names():
         StylizeSettings(mode="gaussian", hatch_spacing=0.02, hatch_layers=4)
     with pytest.raises(ValueError, match="hatch_angle"):
         StylizeSettings(mode="gaussian", hatch_spacing=0.02, hatch_angle=120)
+    with pytest.raises(ValueError, match="hatch_swell"):
+        StylizeSettings(mode="gaussian", hatch_spacing=0.02, hatch_swell=0.2)
     with pytest.raises(ValueError, match="direction 'max' is for"):
         StylizeSettings(mode="gaussian", direction="max")
     assert StylizeSettings(mode="eed", direction="max", hatch_spacing=0.02).stroke_direction == "max"

@@ -7,7 +7,7 @@ from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, pa
 from cp_stylize.strokes import LENGTH_SPREAD
 
 REQUIRED = {"starry_night", "sunflower_vase", "van_gogh_form", "denoise_eed", "perona_malik", "gaussian_blur",
-            "hatching"}
+            "hatching", "woodcut"}
 PAINTERLY = ("starry_night", "van_gogh_form", "sunflower_vase")
 
 
