@@ -35,14 +35,22 @@ surface whatever the charts' scale:
   lightness around it (:data:`LOCAL`, :data:`BROAD`), then taken from clean
   paper at the picture's light tones (:data:`LIGHTEST`) to near-solid ink at
   its darkest (:data:`DARKEST`), the mid-tones open (:data:`TONE_POWER`).
-  The first layer's lines widen with it up to :data:`WIDEST` of a spacing;
+  With ``light``, a light fixed to the object (:data:`LIGHT`) shades the
+  tones first, as an illustrator models a form in line (Praun et al. lay
+  their hatching by the light's angle), so an even tone still shows the
+  form's turn.  The first layer's lines widen with it up to :data:`WIDEST` of a spacing;
   from there the second layer covers what is still asked for, then the
   third, which swells up to ``swell`` (:data:`DEEPEST` by default; 1 fills the
   darkest tones with solid ink cut by white lines, as a woodcut's), so the ink builds up smoothly,
   layer on layer, without patches where a layer switches on.  A layer that
   should cover less than its narrowest line (:data:`LINE_MIN`) is drawn as
   dashes of that line, as many as make up its share (a smooth noise on the
-  surface chooses which stretches);
+  surface chooses which stretches); alike, where the swollen lines leave a
+  white line narrower than that between them, it is cut as dashes of that
+  width and the ink closes between them, so the darks keep clean white cuts
+  instead of grey hairlines.  The widths follow the filtered picture's tone
+  smoothed over half a spacing (:data:`TONE_SMOOTH`), so a line swells and
+  thins smoothly instead of beading;
 - every line's edge is anti-aliased over one texel, from its distance to the
   line's centre (the phase's distance from 0 over its rate of change).
 
@@ -74,8 +82,14 @@ FIELD_SCALE = 8.0
 #: A layer's lines are at most this wide (a share of the spacing); the last layer's swell to ``swell`` (by
 #: default :data:`DEEPEST`) in the darkest tones, so that those read as near-solid ink.
 WIDEST, DEEPEST = 0.35, 0.55
-#: The narrowest line (a share of the spacing): a layer that should cover less is drawn as dashes this wide.
+#: The narrowest line (a share of the spacing): a layer that should cover less is drawn as dashes this wide;
+#: and the narrowest white line between swollen lines: one that should be narrower is cut as dashes this wide,
+#: the ink closed between them.
 LINE_MIN = 0.15
+#: The tone the lines' widths follow is the filtered picture's lightness smoothed over this share of the
+#: spacing (a Gaussian's deviation, on the surface): a line swells and thins smoothly along its length instead
+#: of beading where the picture's detail is finer than the lines can draw.
+TONE_SMOOTH = 0.5
 #: The dashes' noise varies over about this many spacings; each layer reads it moved by this (in spacings).
 DASH_SCALE = 2.5
 DASH_SHIFT = np.array([7.3, -3.1, 5.7])
@@ -92,6 +106,11 @@ TONE_POWER = 1.5
 #: blurred over :data:`BROAD` of the object, on the surface) by this share of the difference: a dark picture
 #: keeps its forms in the ink instead of one mesh of crossing lines.
 LOCAL, BROAD = 1.0, 0.15
+#: The form light's direction in the object's own space (towards the light): from the upper left front, as
+#: Blender's front view sees the object (its front faces -Y, up is +Z).  A surface turned from it keeps this
+#: share of its lightness at full ``light``.
+LIGHT = np.array([-0.45, -0.6, 0.66]) / np.linalg.norm([-0.45, -0.6, 0.66])
+SHADOW = 0.3
 #: The ink and the paper (sRGB) without a palette.
 INK = (0.05, 0.045, 0.05)
 PAPER = (0.97, 0.955, 0.92)
@@ -125,6 +144,9 @@ class Hatching:
         The output's atlas (its texels' lengths anti-alias the lines).
     structure : ndarray, shape (N, C)
         Band values whose structure the lines follow (OKLab).
+    tone : ndarray, shape (N,), optional
+        The filtered picture's OKLab lightness on the band, whose smoothed values (:data:`TONE_SMOOTH`) set the
+        lines' widths; default the lightness of the colours at the texels.
     spacing : float
         The lines' spacing on the surface (at least :data:`MIN_TEXELS` of the atlas's longest texels).
     layers : int
@@ -135,6 +157,8 @@ class Hatching:
         How much ink the tones take: 0.5 the picture's own values, towards 1 darker, towards 0 lighter.
     swell : float in [WIDEST, 1]
         How wide the last layer's lines grow in the darkest tones (a share of the spacing).
+    light : float in [0, 1]
+        How much the form light (:data:`LIGHT`) shades the tones.
     field, level : ndarray, shape (N, 3), optional
         Where the lines run (see :meth:`cp_stylize.stroke_field.StrokeField.at`): ``field`` where its length is
         1 (:func:`cp_stylize.pipeline.hatching` gives the form's direction, or the picture's horizontal), the
@@ -144,8 +168,8 @@ class Hatching:
     seed : int
     """
 
-    def __init__(self, mesh, band, atlas, structure, spacing, *, layers=3, angle=90.0, ink=0.5, swell=DEEPEST,
-                 field=None, level=None, colours=None, seed=0):
+    def __init__(self, mesh, band, atlas, structure, spacing, *, tone=None, layers=3, angle=90.0, ink=0.5, swell=DEEPEST,
+                 light=0.0, field=None, level=None, colours=None, seed=0):
         from scipy.spatial import cKDTree
 
         from .baking import texel_lengths
@@ -155,6 +179,7 @@ class Hatching:
         if not WIDEST <= float(swell) <= 1.0:
             raise ValueError(f"hatching swell must be {WIDEST} to 1, got {swell!r}")
         self.mesh, self.atlas, self.layers, self.swell = mesh, atlas, int(layers), float(swell)
+        self.light = float(light)
         longest = float(np.quantile(texel_lengths(mesh, atlas, atlas.face), 0.9)) if len(atlas.face) else 0.0
         self.spacing = max(float(spacing), MIN_TEXELS * longest)
         self.shift = float(ink) - 0.5
@@ -170,8 +195,13 @@ class Hatching:
         normals = mesh.normal(points, faces, bary)
         lines = StrokeField.layers(band, structure, [FIELD_SCALE * self.spacing])[0]
         lightness = np.ascontiguousarray(np.asarray(structure, np.float32)[:, :1].T)
-        broad = GridGaussian(band, 0.5 * BROAD**2, weights=taper(band.dist, 3.0 * band.h))(lightness)
-        self.columns = broad[0].astype(np.float32)           # read at the texels (see __call__)
+        weights = taper(band.dist, 3.0 * band.h)
+        broad = GridGaussian(band, 0.5 * BROAD**2, weights=weights)(lightness)[0]
+        columns = [broad]
+        if tone is not None:
+            tone = np.asarray(tone, np.float32).reshape(1, -1)
+            columns.append(GridGaussian(band, 0.5 * (TONE_SMOOTH * self.spacing) ** 2, weights=weights)(tone)[0])
+        self.columns = np.stack(columns, axis=1).astype(np.float32)     # read at the texels (see __call__)
         along = lines.at(points, normals, field=field, level=level)
         self.normals, self.piece = normals, mesh.piece[faces]
         self.tree = cKDTree(points)
@@ -225,6 +255,12 @@ class Hatching:
         waves, sign, safe = self._waves(kernels, at, normals, piece, near, index, reference)
         return np.angle(np.sum(waves * self._signed(kernels.phases[safe], sign), axis=1))
 
+    def shading(self, normals):
+        """The share (M,) of their lightness that points with unit ``normals`` (M, 3) keep under the form light:
+        1 facing it (or without it), down to :data:`SHADOW` at full ``light`` where they turn away."""
+        facing = np.clip(np.asarray(normals, np.float64) @ LIGHT, 0.0, 1.0)
+        return 1.0 - self.light * (1.0 - SHADOW) * (1.0 - facing)
+
     def darkness(self, lightness):
         """The ink each lightness (M,) asks for, in [0, 1]: its place between the picture's lightest and darkest
         (:data:`LIGHTEST`, :data:`DARKEST`), shifted by the ink."""
@@ -265,13 +301,16 @@ class Hatching:
             if not here.any():
                 continue
             phase = self.phase(k, at[here], normals[here], piece[here])
-            width = np.maximum(widths[k][here], LINE_MIN)
+            width = np.clip(widths[k][here], LINE_MIN, 1.0 - LINE_MIN)
             distance = np.abs(phase) / self.frequency
             line = np.clip(0.5 + (0.5 * width * self.spacing - distance) / lengths[here], 0.0, 1.0)
             share = widths[k][here] / LINE_MIN                          # of the dashes: 1 and more, whole lines
             noise = self._noise(at[here] + k * self.spacing * DASH_SHIFT)
             drawn = smooth_step((share - noise) / 0.1 + 0.5)
-            clear[here] *= 1.0 - line * drawn
+            cut = (1.0 - widths[k][here]) / LINE_MIN                    # of the white cuts: 1 and more, whole
+            closed = np.where(cut < 1.0, smooth_step((noise - cut) / 0.1 + 0.5), 0.0)
+            ink = line * drawn
+            clear[here] *= 1.0 - (ink + (1.0 - ink) * closed)
         return 1.0 - clear
 
     def __call__(self, texels, colours, read, progress=None):
@@ -282,9 +321,14 @@ class Hatching:
         normals = mesh.normal(points, faces, barys)
         piece = mesh.piece[faces]
         lengths = texel_lengths(mesh, self.atlas, faces)
-        lightness = to_oklab(np.asarray(colours)[:, :3].astype(np.float64))[:, 0]
+        read = None if read is None else np.asarray(read, np.float64).reshape(len(points), -1)
+        if read is not None and read.shape[1] > 1:      # the tone smoothed on the surface
+            lightness = read[:, 1]
+        else:
+            lightness = to_oklab(np.asarray(colours)[:, :3].astype(np.float64))[:, 0]
         if read is not None:                  # away from the broad light and dark around it
-            lightness = lightness + LOCAL * (lightness - np.asarray(read, np.float64).reshape(len(lightness)))
+            lightness = lightness + LOCAL * (lightness - read[:, 0])
+        lightness = lightness * self.shading(normals)
         darkness = self.darkness(lightness)
         amount = np.empty(len(points))
         for s in range(0, len(points), _CHUNK):

@@ -205,6 +205,11 @@ RUN = {p.name: p for p in (
                                       "as a share of their spacing (0.55: paper stays between the lines; 1: solid "
                                       "ink cut by white lines, as in a woodcut)", 0.35, 1.0, 0.55,
               precision=2, file=("hatching", "swell")),
+    Parameter("hatch_light", "Form Light", "Ink hatching: how much a light from the upper left front (fixed to "
+                                           "the object, so it turns with it) shades the tones, so that the lines "
+                                           "model the form even where the picture is one even tone (0: the "
+                                           "picture's tones alone)", 0.0, 1.0, 0.0,
+              precision=2, file=("hatching", "light")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),
@@ -279,6 +284,9 @@ DIRECTIONS = {
                              "a column, along a limb"),
     "axis": ("Axis", "A direction in the object's space, projected onto the surface (falls back to the "
                      "texture where the surface faces it)"),
+    "around": ("Around Axis", "Around a direction in the object's space: its parallels on the surface, as "
+                              "rings around a head or a column (falls back to the texture where the surface "
+                              "faces it)"),
     "attribute": ("Attribute", "A vector attribute of the mesh (per point, corner or face)"),
 }
 

@@ -146,6 +146,9 @@ def stroke_field(band, settings, directions=None):
       meridians for "min", its parallels for "max": :func:`cp_stylize.stroke_field.form_field`);
     - ``"axis"``: ``settings.axis`` (normalised); the diffusion keeps its
       tangential part, whose length falls to 0 where the surface faces it;
+    - ``"around"``: the parallels about ``settings.axis`` on the surface, whose length
+      (:data:`cp_stylize.stroke_field.FALLBACK_TRUST` at most) falls to 0 where the surface faces the axis
+      (:func:`cp_stylize.stroke_field.form_field` with no form direction of its own);
     - ``"attribute"``: ``directions``, per-corner vectors (F, 3, 3) of the
       mesh, each normalised and mixed across its face with the signs of the
       face's first corner (see :func:`sample_directions`).
@@ -160,9 +163,12 @@ def stroke_field(band, settings, directions=None):
             # where the form has no direction
             field = form_field(band, field, around=source == "max")
         return field
-    if source == "axis":
+    if source in ("axis", "around"):
         axis = np.asarray(settings.axis, dtype=np.float64)
-        return np.broadcast_to(axis / np.linalg.norm(axis), (band.size, 3)).copy()
+        axis = axis / np.linalg.norm(axis)
+        if source == "around":
+            return form_field(band, np.zeros((band.size, 3)), around=True, axis=axis)
+        return np.broadcast_to(axis, (band.size, 3)).copy()
     if directions is None:
         raise ValueError("direction 'attribute' needs the mesh's vectors: pass directions= (F, 3, 3)")
     return sample_directions(band, directions)
@@ -289,10 +295,11 @@ def hatch_colours(settings):
     return np.array([INK, PAPER], dtype=np.float64)
 
 
-def hatching(mesh, band, atlas, settings, *, sampled, field, colours):
+def hatching(mesh, band, atlas, settings, *, sampled, field, colours, filtered):
     """The :class:`~cp_stylize.hatching.Hatching` of a run: lines along ``field`` (the settings' direction)
     where it has a direction, else along the picture's horizontal, else along the structure of the
-    picture's ``sampled`` colours; an engraver keeps the lines of an even tone calm."""
+    picture's ``sampled`` colours; an engraver keeps the lines of an even tone calm.  Their widths follow the
+    tone of the ``filtered`` band colours."""
     guide = None if field is None else np.asarray(field, dtype=np.float64)
     if colours.textures:
         level = np.asarray(level_field(band, field, picture_level(mesh, colours)), dtype=np.float64)
@@ -300,9 +307,11 @@ def hatching(mesh, band, atlas, settings, *, sampled, field, colours):
     if guide is not None:                 # trusted wholly where it has a direction
         length = np.linalg.norm(guide, axis=1, keepdims=True)
         guide = np.divide(guide, length, out=np.zeros_like(guide), where=length > 1e-3)
+    tone = to_oklab(np.asarray(filtered).reshape(band.size, -1)[:, :3])[:, 0]
     return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
-                    settings.hatch_spacing, layers=settings.hatch_layers, angle=settings.hatch_angle,
-                    ink=settings.hatch_ink, swell=settings.hatch_swell, field=guide, colours=hatch_colours(settings), seed=settings.seed)
+                    settings.hatch_spacing, tone=tone, layers=settings.hatch_layers, angle=settings.hatch_angle,
+                    ink=settings.hatch_ink, swell=settings.hatch_swell,
+                    light=settings.hatch_light, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
@@ -394,7 +403,8 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness, atlas.size, settings.toon_outlines))
     if settings.hatch_spacing > 0:         # the tones in lines of ink on paper
-        paint = layered(paint, hatching(mesh, band, atlas, settings, sampled=sampled, field=field, colours=colours))
+        paint = layered(paint, hatching(mesh, band, atlas, settings, sampled=sampled, field=field, colours=colours,
+                                              filtered=result))
         clock.lap("hatching")
     if settings.line_width > 0:            # ink lines over the flat colours, under any strokes
         paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,

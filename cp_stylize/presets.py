@@ -14,7 +14,7 @@ the extension)::
     spacing = 0.008       # grid spacing (object 2 units across)
     detail = 1.0          # optional: the texture's own detail, finer than the grid, laid back (0 to 1)
     direction = "min"     # optional, CED and Flow: what the strokes follow (cp_stylize.parameters.DIRECTIONS)
-    axis = [0, 0, 1]      # direction "axis": the axis, in the object's space
+    axis = [0, 0, 1]      # directions "axis" and "around": the axis, in the object's space
     attribute = "flow"    # direction "attribute": the mesh's vector attribute (the add-on reads it)
 
     [params]              # sigma, rho, alpha, b_rel, lambda_rel (see diffuse)

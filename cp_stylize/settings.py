@@ -215,13 +215,14 @@ class StylizeSettings:
     hatch_angle: int = RUN["hatch_angle"].default
     hatch_ink: float = RUN["hatch_ink"].default
     hatch_swell: float = RUN["hatch_swell"].default
+    hatch_light: float = RUN["hatch_light"].default
     line_width: float = RUN["line_width"].default   # ink lines (cp_stylize.lines); 0: none
     line_detail: float = RUN["line_detail"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]
     palette_weights: tuple = ()     # one a colour, at least 0 (none given: all 1)
     seed: int = 0                   # a whole number in SEED_LIMITS
     direction: str | None = None    # CED and Flow: see DIRECTIONS; None: the mode's own (stroke_direction)
-    axis: tuple = (0.0, 0.0, 1.0)   # direction "axis", in the object's space
+    axis: tuple = (0.0, 0.0, 1.0)   # directions "axis" and "around", in the object's space
     attribute: str = ""             # direction "attribute": the mesh's vector attribute, for the add-on
     image_size: int = 1024
     margin: int = 16

@@ -7,7 +7,7 @@ from cp_stylize import hatching
 from cp_stylize.mesh import parametric_mesh
 from cp_stylize.pipeline import ColourInput, hatch_colours, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
-from cp_stylize.surfaces import Torus
+from cp_stylize.surfaces import Sphere, Torus
 from cp_stylize_dev.looks import city_plane, ink_share, kept_hatchings, paper_or_ink
 
 INK, PAPER = np.asarray(hatching.INK), np.asarray(hatching.PAPER)
@@ -139,13 +139,43 @@ def test_full_swell_fills_the_darks_with_solid_ink_cut_by_tapering_white_lines()
     paper = 1.0 - shares[1.0].mean(axis=0)
     steps = [paper[c:c + 16].mean() for c in range(120, 248, 16)]
     assert np.all(np.diff(steps) < 0.01) and steps[0] - steps[-1] > 0.3
+    # where the white lines would be narrower than the finest line, they are cut as dashes of it and the ink
+    # closes between them: clean white cuts and solid ink, few grey hairlines
+    dark = shares[1.0][:, 220:246]
+    assert np.mean((dark > 0.15) & (dark < 0.85)) < 0.15
     # the lights are the same at either swell: only the last layer's widest lines differ
     np.testing.assert_allclose(shares[1.0][:, 8:60], shares[hatching.DEEPEST][:, 8:60], atol=1e-6)
 
 
-def test_the_woodcut_preset_is_one_layer_swelling_to_solid_black():
+def test_the_form_light_darkens_the_side_turned_from_it_and_turns_with_the_object():
+    h = hatching.Hatching.__new__(hatching.Hatching)
+    away = np.array([-hatching.LIGHT, np.cross(hatching.LIGHT, [0.0, 0.0, 1.0])])
+    away[1] /= np.linalg.norm(away[1])
+    for h.light in (0.0, 0.5, 1.0):
+        np.testing.assert_allclose(h.shading(hatching.LIGHT[None]), 1.0)
+        np.testing.assert_allclose(h.shading(away), 1.0 - h.light * (1.0 - hatching.SHADOW))
+    # a sphere of one even grey: with the light, its side turned from the light takes more ink
+    vertices, faces, uvs = parametric_mesh(Sphere().point, 48, 24, periodic_u=True)
+    grey = np.full((16, 16, 3), 0.5, np.float32)
+    settings = StylizeSettings(mode="gaussian", T=1e-6, spacing=0.04, image_size=256, detail=0.0,
+                               hatch_spacing=0.06, hatch_layers=1)
+    size = settings.image_size
+    u, v = (np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size
+    uu, vv = np.meshgrid(u, v)                                              # row 0 at the bottom, as the image
+    normals = Sphere().point(uu, vv)
+    facing = normals @ hatching.LIGHT
+    inks = {}
+    for light in (0.0, 1.0):
+        result, covered = _run(grey, settings.replace(hatch_light=light), (vertices, faces, uvs))
+        ink = _ink(result.image)
+        inks[light] = ink[covered & (facing > 0.7)].mean(), ink[covered & (facing < -0.2)].mean()
+    assert abs(inks[0.0][1] - inks[0.0][0]) < 0.08                        # without it, one tone all round
+    assert inks[1.0][1] - inks[1.0][0] > 0.25                             # with it, the far side darker
+
+
+def test_the_woodcut_preset_is_one_layer_swelling_to_black_cut_by_white_lines():
     preset = load_preset("woodcut")
-    assert preset.name == "Woodcut" and preset.hatch_layers == 1 and preset.hatch_swell == 1.0
+    assert preset.name == "Woodcut" and preset.hatch_layers == 1 and preset.hatch_swell >= 1.0 - hatching.LINE_MIN
     assert preset.hatch_spacing > load_preset("hatching").hatch_spacing and preset.line_width > 0
 
 

@@ -94,12 +94,12 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',
      f"[noise] palette entry 1 must be {ENTRY}, got ['#12345', 1]"),
-    ('mode = "ced"\ndirection = "up"', "direction must be one of ['texture', 'max', 'min', 'axis', 'attribute'], "
+    ('mode = "ced"\ndirection = "up"', "direction must be one of ['texture', 'max', 'min', 'axis', 'around', 'attribute'], "
                                        "got 'up'"),
     ('mode = "eed"\ndirection = "min"', "direction 'min' is for the modes ['ced', 'flow'], brush strokes and "
                                        "hatching, not 'eed' without either"),
     ('mode = "flow"\ndirection = "texture"', "mode 'flow' draws along a direction field: direction must be one of "
-                                             "['max', 'min', 'axis', 'attribute'], not 'texture'"),
+                                             "['max', 'min', 'axis', 'around', 'attribute'], not 'texture'"),
     ('mode = "ced"\naxis = [0, 0, 0]', "axis must be three finite numbers, not all zero, got [0, 0, 0]"),
     ('mode = "ced"\naxis = [1, 2]', "axis must be three finite numbers, not all zero, got [1, 2]"),
     ('mode = "ced"\ndetail = 1.5', "detail must lie in [0, 1], got 1.5"),
@@ -137,7 +137,7 @@ WRONG_TYPES = [
     ('T = "abc"', "T must lie in [1e-06, 0.1], got 'abc'"),
     ('spacing = true', "spacing must lie in [0.002, 0.1], got True"),
     ('detail = [1]', "detail must lie in [0, 1], got [1]"),
-    ('direction = 1', "direction must be one of ['texture', 'max', 'min', 'axis', 'attribute'], got 1"),
+    ('direction = 1', "direction must be one of ['texture', 'max', 'min', 'axis', 'around', 'attribute'], got 1"),
     ('axis = 5', "axis must be three finite numbers, not all zero, got 5"),
     ('axis = "xyz"', "axis must be three finite numbers, not all zero, got 'xyz'"),
     ('axis = [1, "a", 0]', "axis must be three finite numbers, not all zero, got [1, 'a', 0]"),

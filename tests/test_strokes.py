@@ -172,6 +172,26 @@ def test_the_form_field_runs_along_the_axis_where_the_form_has_no_direction(sphe
     assert np.median(np.abs(np.einsum("ij,ij->i", kept[equator], given[equator]))) > 0.99
 
 
+def test_the_around_direction_runs_the_parallels_of_its_axis(sphere):
+    from cp_stylize.pipeline import stroke_field
+    from cp_stylize.presets import StylizeSettings
+    from cp_stylize.stroke_field import FALLBACK_TRUST
+
+    mesh, band, atlas, texels = sphere
+    n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
+    axis = np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0)                     # any axis in the object's space
+    settings = StylizeSettings(mode="eed", direction="around", axis=tuple(axis), hatch_spacing=0.05)
+    field = stroke_field(band, settings)
+    length = np.linalg.norm(field, axis=1)
+    belt = np.abs(n @ axis) < 0.5                                        # the axis's equator and near it
+    unit = field[belt] / length[belt, None]
+    assert np.median(np.abs(unit @ axis)) < 0.05                        # across the axis: its parallels
+    assert np.median(np.abs(np.einsum("ij,ij->i", unit, n[belt]))) < 0.05   # on the surface
+    assert np.median(length[belt]) > 0.9 * FALLBACK_TRUST and np.all(length <= FALLBACK_TRUST + 1e-9)
+    pole = np.abs(n @ axis) > 0.999                                      # facing the axis: no direction
+    assert pole.any() and np.all(length[pole] < 0.1 * FALLBACK_TRUST)
+
+
 def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere):
     mesh, band, atlas, texels = sphere
     colours = _stripes(band, [0, 0, 1])                    # stripes round the z axis: strokes run around it

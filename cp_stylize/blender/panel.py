@@ -154,7 +154,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         obj = context.active_object
         if takes_direction(settings.mode, settings.strokes, settings.hatch_spacing):
             layout.prop(settings, "direction")
-            if settings.direction == "axis":
+            if settings.direction in ("axis", "around"):
                 layout.prop(settings, "axis")
             elif settings.direction == "attribute":
                 if obj is not None and obj.type == "MESH":
@@ -232,7 +232,7 @@ class VIEW3D_PT_cp_stylize_hatching(_Closed, bpy.types.Panel):
     def draw(self, context):
         layout = _split(self.layout)
         _switched(layout, context.scene.cp_stylize, "hatch_spacing", ["hatch_layers", "hatch_angle", "hatch_ink",
-                                                                      "hatch_swell"],
+                                                                      "hatch_swell", "hatch_light"],
                   text="Spacing")
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Outlines")
 

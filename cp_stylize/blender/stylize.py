@@ -403,7 +403,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         if settings.relief > 0 and settings.strokes > 0:
             file_stem(relief_name, "OPEN_EXR")
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
-    if settings.stroke_direction == "axis":
+    if settings.stroke_direction in ("axis", "around"):
         # the axis is the object's; the core sees the mesh in world units without its rotation
         settings = settings.replace(axis=meshdata.axis_in_frame(obj, settings.axis))
     if not output.keep:
