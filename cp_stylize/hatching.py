@@ -48,9 +48,12 @@ surface whatever the charts' scale:
   surface chooses which stretches); alike, where the swollen lines leave a
   white line narrower than that between them, it is cut as dashes of that
   width and the ink closes between them, so the darks keep clean white cuts
-  instead of grey hairlines.  The widths follow the filtered picture's tone
-  smoothed over half a spacing (:data:`TONE_SMOOTH`), so a line swells and
-  thins smoothly instead of beading;
+  instead of grey hairlines.  With ``smooth``, the widths follow the filtered
+  picture's tone smoothed along the lines over that many spacings (Diewald
+  and Rumpf's flow diffusion along their direction), so a line swells and
+  thins smoothly instead of beading over fine detail, and a step of the tone
+  across the lines stays a step (one across them is softened: the price of
+  smooth lines);
 - every line's edge is anti-aliased over one texel, from its distance to the
   line's centre (the phase's distance from 0 over its rate of change).
 
@@ -86,10 +89,9 @@ WIDEST, DEEPEST = 0.35, 0.55
 #: and the narrowest white line between swollen lines: one that should be narrower is cut as dashes this wide,
 #: the ink closed between them.
 LINE_MIN = 0.15
-#: The tone the lines' widths follow is the filtered picture's lightness smoothed over this share of the
-#: spacing (a Gaussian's deviation, on the surface): a line swells and thins smoothly along its length instead
-#: of beading where the picture's detail is finer than the lines can draw.
-TONE_SMOOTH = 0.5
+#: With ``smooth``, the tone the lines' widths follow is smoothed across them by this share of the smoothing
+#: along them (a step of the tone across the lines stays a step).
+ACROSS = 0.02
 #: The dashes' noise varies over about this many spacings; each layer reads it moved by this (in spacings).
 DASH_SCALE = 2.5
 DASH_SHIFT = np.array([7.3, -3.1, 5.7])
@@ -145,8 +147,8 @@ class Hatching:
     structure : ndarray, shape (N, C)
         Band values whose structure the lines follow (OKLab).
     tone : ndarray, shape (N,), optional
-        The filtered picture's OKLab lightness on the band, whose smoothed values (:data:`TONE_SMOOTH`) set the
-        lines' widths; default the lightness of the colours at the texels.
+        The filtered picture's OKLab lightness on the band, whose values smoothed along the lines (``smooth``)
+        set the lines' widths; default the lightness of the colours at the texels.
     spacing : float
         The lines' spacing on the surface (at least :data:`MIN_TEXELS` of the atlas's longest texels).
     layers : int
@@ -159,6 +161,8 @@ class Hatching:
         How wide the last layer's lines grow in the darkest tones (a share of the spacing).
     light : float in [0, 1]
         How much the form light (:data:`LIGHT`) shades the tones.
+    smooth : float
+        How far ``tone`` is smoothed along the lines (a Gaussian's deviation, in spacings).
     field, level : ndarray, shape (N, 3), optional
         Where the lines run (see :meth:`cp_stylize.stroke_field.StrokeField.at`): ``field`` where its length is
         1 (:func:`cp_stylize.pipeline.hatching` gives the form's direction, or the picture's horizontal), the
@@ -169,7 +173,7 @@ class Hatching:
     """
 
     def __init__(self, mesh, band, atlas, structure, spacing, *, tone=None, layers=3, angle=90.0, ink=0.5, swell=DEEPEST,
-                 light=0.0, field=None, level=None, colours=None, seed=0):
+                 light=0.0, smooth=0.0, field=None, level=None, colours=None, seed=0):
         from scipy.spatial import cKDTree
 
         from .baking import texel_lengths
@@ -179,7 +183,7 @@ class Hatching:
         if not WIDEST <= float(swell) <= 1.0:
             raise ValueError(f"hatching swell must be {WIDEST} to 1, got {swell!r}")
         self.mesh, self.atlas, self.layers, self.swell = mesh, atlas, int(layers), float(swell)
-        self.light = float(light)
+        self.light, self.smooth = float(light), float(smooth)
         longest = float(np.quantile(texel_lengths(mesh, atlas, atlas.face), 0.9)) if len(atlas.face) else 0.0
         self.spacing = max(float(spacing), MIN_TEXELS * longest)
         self.shift = float(ink) - 0.5
@@ -198,9 +202,8 @@ class Hatching:
         weights = taper(band.dist, 3.0 * band.h)
         broad = GridGaussian(band, 0.5 * BROAD**2, weights=weights)(lightness)[0]
         columns = [broad]
-        if tone is not None:
-            tone = np.asarray(tone, np.float32).reshape(1, -1)
-            columns.append(GridGaussian(band, 0.5 * (TONE_SMOOTH * self.spacing) ** 2, weights=weights)(tone)[0])
+        if tone is not None and self.smooth > 0:
+            columns.append(self._along_lines(band, lines, tone, field, level, weights))
         self.columns = np.stack(columns, axis=1).astype(np.float32)     # read at the texels (see __call__)
         along = lines.at(points, normals, field=field, level=level)
         self.normals, self.piece = normals, mesh.piece[faces]
@@ -216,6 +219,22 @@ class Hatching:
             layer.phases = self._aligned(layer, near, index)
             self._layers.append(layer)
         self.dashes = Swirls(DASH_SCALE * self.spacing, seed)      # its omega and phases: a smooth noise
+
+    def _along_lines(self, band, lines, tone, field, level, weights):
+        """The band's ``tone`` (N,) smoothed along the first layer's lines (``smooth``): Diewald and
+        Rumpf's flow diffusion along their direction, which leaves the tone's steps across the lines as they
+        are; on a band without the anisotropic stencil, a Gaussian on the surface."""
+        from .diffusion import diffuse
+        from .tangent import surface_normals
+
+        tone = np.asarray(tone, np.float32).reshape(-1)
+        time = 0.5 * (self.smooth * self.spacing) ** 2
+        if band.stencil != "anisotropic":
+            return GridGaussian(band, time, weights=weights)(tone[None, :])[0]
+        normals = np.asarray(surface_normals(band), dtype=np.float64)
+        direction = lines.at(band.cp.astype(np.float64), normals, field=field, level=level)
+        return diffuse(band, tone, mode="flow", T=time, field=direction, sigma=0.0, alpha=1.0, beta=ACROSS,
+                       lambda_rel=1.0, contrast=0.0, ink=0.0)
 
     def _waves(self, layer, at, normals, piece, near, index, reference):
         """The kernels ``index`` (M, K) at distances ``near`` (M, K) from the points ``at`` (M, 3) with normals

@@ -210,6 +210,11 @@ RUN = {p.name: p for p in (
                                            "model the form even where the picture is one even tone (0: the "
                                            "picture's tones alone)", 0.0, 1.0, 0.0,
               precision=2, file=("hatching", "light")),
+    Parameter("hatch_smooth", "Line Smoothing", "Ink hatching: how far the tone the lines' widths follow is "
+                                                "smoothed along them, in spacings, so a line swells and thins "
+                                                "smoothly instead of beading over fine detail (0: the picture's "
+                                                "own tone, every edge kept)", 0.0, 1.0, 0.0,
+              precision=2, file=("hatching", "smooth")),
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),

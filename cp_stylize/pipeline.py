@@ -307,11 +307,12 @@ def hatching(mesh, band, atlas, settings, *, sampled, field, colours, filtered):
     if guide is not None:                 # trusted wholly where it has a direction
         length = np.linalg.norm(guide, axis=1, keepdims=True)
         guide = np.divide(guide, length, out=np.zeros_like(guide), where=length > 1e-3)
-    tone = to_oklab(np.asarray(filtered).reshape(band.size, -1)[:, :3])[:, 0]
+    tone = (to_oklab(np.asarray(filtered).reshape(band.size, -1)[:, :3])[:, 0] if settings.hatch_smooth > 0
+            else None)
     return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
                     settings.hatch_spacing, tone=tone, layers=settings.hatch_layers, angle=settings.hatch_angle,
                     ink=settings.hatch_ink, swell=settings.hatch_swell,
-                    light=settings.hatch_light, field=guide, colours=hatch_colours(settings), seed=settings.seed)
+                    light=settings.hatch_light, smooth=settings.hatch_smooth, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):

@@ -216,6 +216,7 @@ class StylizeSettings:
     hatch_ink: float = RUN["hatch_ink"].default
     hatch_swell: float = RUN["hatch_swell"].default
     hatch_light: float = RUN["hatch_light"].default
+    hatch_smooth: float = RUN["hatch_smooth"].default
     line_width: float = RUN["line_width"].default   # ink lines (cp_stylize.lines); 0: none
     line_detail: float = RUN["line_detail"].default
     palette: tuple = ()             # sRGB colours as (r, g, b) in [0, 1]

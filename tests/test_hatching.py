@@ -173,6 +173,21 @@ def test_the_form_light_darkens_the_side_turned_from_it_and_turns_with_the_objec
     assert inks[1.0][1] - inks[1.0][0] > 0.25                             # with it, the far side darker
 
 
+@pytest.mark.parametrize("mode", ["eed", "gaussian"])     # the flow along the lines; a Gaussian's fallback
+def test_line_smoothing_calms_the_widths_along_the_lines_and_keeps_a_step_across_them(mode):
+    rng = np.random.default_rng(5)
+    image = np.clip(0.5 + 0.2 * rng.standard_normal((48, 48, 1)), 0, 1).repeat(3, axis=2).astype(np.float32)
+    image[:24] *= 0.5                                       # a step across the lines (they run along the rows)
+    found = {}
+    for smooth in (0.0, 0.5):
+        result, covered = _run(image, _LINES.replace(mode=mode, T=1e-6, hatch_ink=0.5, hatch_smooth=smooth))
+        ink = _ink(result.image)[np.flatnonzero(covered.all(axis=1))[8:-8]][:, 16:240]
+        half = len(ink) // 2
+        found[smooth] = np.abs(np.diff(ink, axis=1)).mean(), ink[:half - 12].mean() - ink[half + 12:].mean()
+    assert found[0.5][0] < 0.8 * found[0.0][0]              # the widths change less along the lines
+    assert found[0.5][1] > 0.9 * found[0.0][1] > 0.2       # the step across them stays
+
+
 def test_the_woodcut_preset_is_one_layer_swelling_to_black_cut_by_white_lines():
     preset = load_preset("woodcut")
     assert preset.name == "Woodcut" and preset.hatch_layers == 1 and preset.hatch_swell >= 1.0 - hatching.LINE_MIN

@@ -232,7 +232,7 @@ class VIEW3D_PT_cp_stylize_hatching(_Closed, bpy.types.Panel):
     def draw(self, context):
         layout = _split(self.layout)
         _switched(layout, context.scene.cp_stylize, "hatch_spacing", ["hatch_layers", "hatch_angle", "hatch_ink",
-                                                                      "hatch_swell", "hatch_light"],
+                                                                      "hatch_swell", "hatch_light", "hatch_smooth"],
                   text="Spacing")
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Outlines")
 
