@@ -40,8 +40,9 @@ surface whatever the charts' scale:
   their hatching by the light's angle), so an even tone still shows the
   form's turn.  The first layer's lines widen with it up to :data:`WIDEST` of a spacing;
   from there the second layer covers what is still asked for, then the
-  third, which swells up to ``swell`` (:data:`DEEPEST` by default; 1 fills the
-  darkest tones with solid ink cut by white lines, as a woodcut's), so the ink builds up smoothly,
+  third, which swells up to ``swell`` (:data:`DEEPEST` by default; towards 1
+  the darkest tones fill with ink cut only by thin white lines, as a
+  woodcut's, and at 1 with solid ink), so the ink builds up smoothly,
   layer on layer, without patches where a layer switches on.  A layer that
   should cover less than its narrowest line (:data:`LINE_MIN`) is drawn as
   dashes of that line, as many as make up its share (a smooth noise on the
@@ -52,8 +53,8 @@ surface whatever the charts' scale:
   picture's tone smoothed along the lines over that many spacings (Diewald
   and Rumpf's flow diffusion along their direction), so a line swells and
   thins smoothly instead of beading over fine detail, and a step of the tone
-  across the lines stays a step (one across them is softened: the price of
-  smooth lines);
+  across the lines stays a step (an edge that the lines cross is softened:
+  the price of smooth lines);
 - every line's edge is anti-aliased over one texel, from its distance to the
   line's centre (the phase's distance from 0 over its rate of change).
 

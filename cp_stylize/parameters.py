@@ -202,8 +202,8 @@ RUN = {p.name: p for p in (
                                   "1 darker)", 0.0, 1.0, 0.5,
               precision=2, file=("hatching", "ink")),
     Parameter("hatch_swell", "Swell", "Ink hatching: how wide the last layer's lines swell in the darkest tones, "
-                                      "as a share of their spacing (0.55: paper stays between the lines; 1: solid "
-                                      "ink cut by white lines, as in a woodcut)", 0.35, 1.0, 0.55,
+                                      "as a share of their spacing (0.55: paper stays between the lines; 0.85: only "
+                                      "thin white cuts, as in a woodcut; 1: solid ink)", 0.35, 1.0, 0.55,
               precision=2, file=("hatching", "swell")),
     Parameter("hatch_light", "Form Light", "Ink hatching: how much a light from the upper left front (fixed to "
                                            "the object, so it turns with it) shades the tones, so that the lines "
