@@ -210,7 +210,17 @@ def scenario_panel():
     screenshot("panel_hatching", sidebar)
     facts["hatching"] = {"hatch_spacing": settings.hatch_spacing, "hatch_layers": settings.hatch_layers,
                          "line_width": settings.line_width}
-    aside.append(panels.VIEW3D_PT_cp_stylize_toon)
+    # the Output sub-panel, with the Ink Hatching and Palette sub-panels out of the way too: its limits' labels
+    # whole at the sidebar's width
+    for cls in (panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette):
+        bpy.utils.unregister_class(cls)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_output", sidebar)
+    facts["output_labels"] = [settings.bl_rna.properties[name].name for name in ("memory_limit", "time_limit")]
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_output)      # back in their order
+    aside += [panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_hatching,
+              panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
     for cls in aside:
         bpy.utils.register_class(cls)
     # the preset menu, a picture of each preset over its name

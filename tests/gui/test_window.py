@@ -90,6 +90,9 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert os.path.getsize(facts["screenshots"]["panel_hatching_crop"]) > 10_000
     assert facts["hatching"] == {"hatch_spacing": pytest.approx(0.016), "hatch_layers": 3,
                                  "line_width": pytest.approx(0.004)}
+    # the Output sub-panel drawn with its limits, each label short enough for the sidebar's default width
+    assert facts["output_labels"] == ["Max RAM (GiB)", "Max Time (min)"]
+    assert os.path.getsize(facts["screenshots"]["panel_output_crop"]) > 10_000
     assert os.path.getsize(facts["screenshots"]["panel_advanced_crop"]) > 10_000
     from cp_stylize.presets import builtin_presets
 
