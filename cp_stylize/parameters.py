@@ -25,7 +25,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction"]
+           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -294,6 +294,8 @@ DIRECTIONS = {
                               "faces it)"),
     "attribute": ("Attribute", "A vector attribute of the mesh (per point, corner or face)"),
 }
+#: The directions that read the settings' axis (in the object's space).
+AXIS_DIRECTIONS = ("axis", "around")
 
 #: How palette noise picks its colours: name -> (label, description), in the order the panel lists them.
 NOISE_MAPPINGS = {
@@ -312,6 +314,7 @@ def takes_direction(mode, strokes=0.0, hatch_spacing=0.0):
     """Whether a run follows a direction (:data:`DIRECTIONS`): in the modes of :data:`DIRECTED_MODES`, and in
     any mode with brush strokes or hatching."""
     return mode in DIRECTED_MODES or strokes > 0 or hatch_spacing > 0
+
 
 #: Mode names, in the core's order.
 MODES = ("gaussian", "perona_malik", "eed", "ced", "beltrami", "flow")

@@ -46,7 +46,7 @@ from .oklab import to_oklab
 from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .seams import SeamHealing, seam_edges
-from .parameters import DIRECTED_MODES
+from .parameters import AXIS_DIRECTIONS, DIRECTED_MODES
 from .stroke_field import form_field, level_field, sample_directions
 from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
@@ -163,7 +163,7 @@ def stroke_field(band, settings, directions=None):
             # where the form has no direction
             field = form_field(band, field, around=source == "max")
         return field
-    if source in ("axis", "around"):
+    if source in AXIS_DIRECTIONS:
         axis = np.asarray(settings.axis, dtype=np.float64)
         axis = axis / np.linalg.norm(axis)
         if source == "around":
@@ -311,8 +311,8 @@ def hatching(mesh, band, atlas, settings, *, sampled, field, colours, filtered):
             else None)
     return Hatching(mesh, band, atlas, to_oklab(np.asarray(sampled)[:, :3]).astype(np.float32),
                     settings.hatch_spacing, tone=tone, layers=settings.hatch_layers, angle=settings.hatch_angle,
-                    ink=settings.hatch_ink, swell=settings.hatch_swell,
-                    light=settings.hatch_light, smooth=settings.hatch_smooth, field=guide, colours=hatch_colours(settings), seed=settings.seed)
+                    ink=settings.hatch_ink, swell=settings.hatch_swell, light=settings.hatch_light,
+                    smooth=settings.hatch_smooth, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
@@ -405,7 +405,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness, atlas.size, settings.toon_outlines))
     if settings.hatch_spacing > 0:         # the tones in lines of ink on paper
         paint = layered(paint, hatching(mesh, band, atlas, settings, sampled=sampled, field=field, colours=colours,
-                                              filtered=result))
+                                        filtered=result))
         clock.lap("hatching")
     if settings.line_width > 0:            # ink lines over the flat colours, under any strokes
         paint = layered(paint, Lines(mesh, atlas, settings.line_width, detail=settings.line_detail,

@@ -17,6 +17,8 @@ within 45 degrees of it, where a texel's width shrinks by at most 1/sqrt(2).
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull
@@ -478,28 +480,23 @@ def tone_correlation(ink, lightness, mask, window=16):
     return float(np.corrcoef(blocks(ink)[whole], blocks(lightness)[whole])[0, 1])
 
 
+@contextlib.contextmanager
 def kept_hatchings():
     """A context manager that yields a list, which collects each :class:`~cp_stylize.hatching.Hatching` the runs
     inside it make (for the measures that read a run's lines on the surface)."""
-    import contextlib
-
     from cp_stylize import hatching
 
-    @contextlib.contextmanager
-    def kept():
-        made, original = [], hatching.Hatching.__init__
+    made, original = [], hatching.Hatching.__init__
 
-        def keep(self, *args, **kwargs):
-            original(self, *args, **kwargs)
-            made.append(self)
+    def keep(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        made.append(self)
 
-        hatching.Hatching.__init__ = keep
-        try:
-            yield made
-        finally:
-            hatching.Hatching.__init__ = original
-
-    return kept()
+    hatching.Hatching.__init__ = keep
+    try:
+        yield made
+    finally:
+        hatching.Hatching.__init__ = original
 
 
 def hatch_spacings(hatch, probes=400, seed=0, darkness=0.3, reach=4.0):

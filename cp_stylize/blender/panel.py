@@ -4,7 +4,7 @@ import os
 
 import bpy
 
-from ..parameters import FILTERS, takes_direction
+from ..parameters import AXIS_DIRECTIONS, FILTERS, takes_direction
 from . import operators
 from .properties import SIZE_VIEWS, filter_property, object_scale, size_property
 
@@ -154,7 +154,7 @@ class VIEW3D_PT_cp_stylize(_Sidebar, bpy.types.Panel):
         obj = context.active_object
         if takes_direction(settings.mode, settings.strokes, settings.hatch_spacing):
             layout.prop(settings, "direction")
-            if settings.direction in ("axis", "around"):
+            if settings.direction in AXIS_DIRECTIONS:
                 layout.prop(settings, "axis")
             elif settings.direction == "attribute":
                 if obj is not None and obj.type == "MESH":

@@ -22,7 +22,7 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import (DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS,
+from ..parameters import (AXIS_DIRECTIONS, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS,
                           takes_direction)
 
 #: Grid spacing relative to an object whose diameter is 2, by quality.
@@ -196,7 +196,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
         params = {p.name: getattr(self, filter_property(self.mode, p.name)) for p in FILTERS[self.mode].parameters}
         direction = self.direction if takes_direction(self.mode, self.strokes, self.hatch_spacing) else None
         # the axis where it is used or usable (a zeroed axis must not stop an attribute run), so a preset keeps it
-        axis = {"axis": tuple(self.axis)} if direction in ("axis", "around") or any(self.axis) else {}
+        axis = {"axis": tuple(self.axis)} if direction in AXIS_DIRECTIONS or any(self.axis) else {}
         run = {name: getattr(self, PROPERTY_NAMES.get(name, name)) for name in RUN}
         run["spacing"] = self.relative_spacing()
         return StylizeSettings(

@@ -42,6 +42,7 @@ import threading
 import bpy
 import numpy as np
 
+from ..parameters import AXIS_DIRECTIONS
 from . import bake, images, materials, meshdata
 from .errors import Cancelled, StylizeError
 from .writing import ATLAS_UV_NAME, MODE_NAMES, UV_LIMIT, file_stem, result_names, save_folder
@@ -403,7 +404,7 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
         if settings.relief > 0 and settings.strokes > 0:
             file_stem(relief_name, "OPEN_EXR")
     mesh = meshdata.read(obj, depsgraph, vectors=_direction_attribute(obj, settings))
-    if settings.stroke_direction in ("axis", "around"):
+    if settings.stroke_direction in AXIS_DIRECTIONS:
         # the axis is the object's; the core sees the mesh in world units without its rotation
         settings = settings.replace(axis=meshdata.axis_in_frame(obj, settings.axis))
     if not output.keep:

@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from cp_stylize.parameters import DIRECTED_MODES, DIRECTIONS, FILTERS  # noqa: E402
+from cp_stylize.parameters import AXIS_DIRECTIONS, DIRECTED_MODES, DIRECTIONS, FILTERS  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -95,7 +95,7 @@ def test_the_stroke_direction_shows_what_it_needs(registered, direction):
         panel.VIEW3D_PT_cp_stylize.draw(types.SimpleNamespace(layout=FakeLayout(log)), bpy.context)
         props = {name for kind, name in log if kind == "prop"}
         assert ("direction" in props) == (mode in DIRECTED_MODES)
-        assert ("axis" in props) == (mode in DIRECTED_MODES and direction in ("axis", "around"))
+        assert ("axis" in props) == (mode in DIRECTED_MODES and direction in AXIS_DIRECTIONS)
         assert ("direction_attribute" in props) == (mode in DIRECTED_MODES and direction == "attribute")
         settings = registered.to_settings() if (mode, direction) != ("flow", "texture") else None
         if settings is not None:
