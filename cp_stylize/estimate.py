@@ -59,6 +59,11 @@ BYTES_LINES_PER_TEXEL = 400
 #: Toon bands (:mod:`cp_stylize.toon`) with the atlas's size (their islands and steps): seconds per texel of
 #: the atlas.
 SECONDS_TOON_PER_TEXEL = 1.5e-6
+#: Watercolour (:mod:`cp_stylize.watercolour`): its washes (as toon bands), the noises of the surface and the
+#: distances to the washes' borders, per texel of the atlas (1024 x 1024, every texel covered: 5 s on two cores,
+#: at a peak of 330 MB).
+SECONDS_WASH_PER_TEXEL = 5e-6
+BYTES_WASH_PER_TEXEL = 330
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
@@ -103,6 +108,9 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
         nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL
     if settings.toon_levels:
         seconds += texels * SECONDS_TOON_PER_TEXEL
+    if settings.wash_levels:
+        seconds += texels * SECONDS_WASH_PER_TEXEL
+        nbytes += texels * BYTES_WASH_PER_TEXEL
     if settings.line_width > 0:
         seconds += texels * SECONDS_LINES_PER_TEXEL
         nbytes += texels * BYTES_LINES_PER_TEXEL

@@ -177,6 +177,24 @@ RUN = {p.name: p for p in (
                                            "bands, on their dark side, this strong (0: none)", 0.0, 1.0, 0.0,
               precision=2,
               file=("toon", "outlines")),
+    Parameter("wash_levels", "Washes", "Watercolour: the picture's lightness in this many washes of transparent "
+                                       "pigment on paper, hue and chroma its own, each darker at its border "
+                                       "(Curtis et al., \"Computer-generated watercolor\", 1997; Bousseau et al., "
+                                       "\"Interactive watercolor rendering with temporal coherence and "
+                                       "abstraction\", 2006; 0: none)", 0, 8, 0, "count", precision=0, step=100,
+              file=("watercolour", "washes")),
+    Parameter("wash_edges", "Edge Darkening", "Watercolour: how much pigment pools inside a darker wash along its "
+                                              "border with a lighter one, where it dried (0: none)", 0.0, 1.0, 0.5, precision=2,
+              file=("watercolour", "edges")),
+    Parameter("wash_granulation", "Granulation", "Watercolour: how much the pigment settles in the paper's grain, "
+                                                 "most in the dark washes (0: smooth washes on smooth paper)",
+              0.0, 1.0, 0.5, precision=2, file=("watercolour", "granulation")),
+    Parameter("wash_bleed", "Bleeding", "Watercolour: the share of the washes' borders where one ran wet into the "
+                                        "next, soft and without a dark rim (0: every border dried hard)",
+              0.0, 1.0, 0.3, precision=2, file=("watercolour", "bleed")),
+    Parameter("wash_wobble", "Wobble", "Watercolour: how far the washes' borders meander where the picture's "
+                                       "lightness changes slowly (0: they follow it exactly)", 0.0, 1.0, 0.5,
+              precision=2, file=("watercolour", "wobble")),
     Parameter("line_width", "Lines", "Ink lines along the picture's edges and thin dark lines, this wide (object "
                                      "normalised to a diameter of 2; at least a texel and a half), by Kang, Lee and "
                                      "Chui's flow-based difference of Gaussians on the surface, as sharp as the "

@@ -37,6 +37,7 @@ from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
 from .toon import Toon
+from .watercolour import PAPER as WASH_PAPER, Watercolour
 from .hatching import INK, PAPER, Hatching
 from .stars import find_stars, on_band, on_picture
 from .lines import Lines
@@ -235,6 +236,9 @@ def input_colours(colours, settings, channels=3):
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
     if settings.line_width > 0 or (settings.toon_levels and settings.toon_outlines > 0):   # ink goes to black
         found.append(np.zeros((1, channels), np.float32))
+    if settings.wash_levels:                                     # watercolour: its paper, and pigment pooled dark
+        found.append(np.pad(np.float32([WASH_PAPER, (0.0, 0.0, 0.0)])[:, :channels],
+                            ((0, 0), (0, max(0, channels - 3)))))
     if settings.hatch_spacing > 0:                               # hatching: ink and paper alone
         found.append(np.pad(np.float32(hatch_colours(settings))[:, :channels], ((0, 0), (0, max(0, channels - 3)))))
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
@@ -403,6 +407,10 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
         clock.lap("oil")
     if settings.toon_levels:               # toon bands over the colours, under any strokes and lines
         paint = layered(paint, Toon(settings.toon_levels, settings.toon_softness, atlas.size, settings.toon_outlines))
+    if settings.wash_levels:               # washes of pigment on paper, under any lines
+        paint = layered(paint, Watercolour(settings.wash_levels, atlas.size, edges=settings.wash_edges,
+                                           granulation=settings.wash_granulation, bleed=settings.wash_bleed,
+                                           wobble=settings.wash_wobble, seed=settings.seed))
     if settings.hatch_spacing > 0:         # the tones in lines of ink on paper
         paint = layered(paint, hatching(mesh, band, atlas, settings, sampled=sampled, field=field, colours=colours,
                                         filtered=result))

@@ -41,6 +41,13 @@ the extension)::
     levels = 4            # 0: none
     softness = 0.3
 
+    [watercolour]         # optional: watercolour washes on paper (cp_stylize.watercolour)
+    washes = 4            # 0: none
+    edges = 0.5           # pigment pooled at the washes' borders
+    granulation = 0.5
+    bleed = 0.3           # the share of borders that ran wet
+    wobble = 0.5
+
     [lines]               # optional: ink lines at the texels (cp_stylize.lines)
     width = 0.006         # the lines' width (object 2 units across); 0: none
     detail = 0.5          # 0: the strongest edges alone; 1: most of them
@@ -115,6 +122,7 @@ _FILE = {
     "strokes": _run_keys("strokes"),
     "oil": _run_keys("oil"),
     "toon": _run_keys("toon"),
+    "watercolour": _run_keys("watercolour"),
     "lines": _run_keys("lines"),
     "hatching": _run_keys("hatching"),
     "output": {"size": "image_size", "margin": "margin"},
@@ -434,7 +442,8 @@ def preset_text(settings):
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
     lines += ["]", "", "[strokes]", *run("strokes")]
-    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[lines]", *run("lines"),
+    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[watercolour]", *run("watercolour"),
+              "", "[lines]", *run("lines"),
               "", "[hatching]", *run("hatching")]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)

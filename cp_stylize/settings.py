@@ -210,6 +210,11 @@ class StylizeSettings:
     toon_levels: int = RUN["toon_levels"].default   # toon bands of lightness (cp_stylize.toon); 0: none
     toon_softness: float = RUN["toon_softness"].default
     toon_outlines: float = RUN["toon_outlines"].default
+    wash_levels: int = RUN["wash_levels"].default   # watercolour washes (cp_stylize.watercolour); 0: none
+    wash_edges: float = RUN["wash_edges"].default
+    wash_granulation: float = RUN["wash_granulation"].default
+    wash_bleed: float = RUN["wash_bleed"].default
+    wash_wobble: float = RUN["wash_wobble"].default
     hatch_spacing: float = RUN["hatch_spacing"].default   # ink hatching (cp_stylize.hatching); 0: none
     hatch_layers: int = RUN["hatch_layers"].default
     hatch_angle: int = RUN["hatch_angle"].default
@@ -244,6 +249,9 @@ class StylizeSettings:
         if self.toon_levels == 1:
             raise ValueError("Toon Levels (toon_levels, [toon] levels in a preset) must be 0 (no toon shading) or "
                              "from 2 to 8 bands of lightness, got 1")
+        if self.wash_levels == 1:
+            raise ValueError("Washes (wash_levels, [watercolour] washes in a preset) must be 0 (no watercolour) or "
+                             "from 2 to 8 washes of lightness, got 1")
 
     def _check_palette(self):
         if self.noise_on and not self.palette:

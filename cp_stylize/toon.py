@@ -124,31 +124,44 @@ class Toon:
 
     columns = None
 
-    def __init__(self, levels, softness=0.3, size=None, outlines=0.0):
+    def __init__(self, levels, softness=0.3, size=None, outlines=0.0, island=ISLAND):
         self.levels, self.softness, self.size, self.outlines = int(levels), float(softness), size, float(outlines)
+        self.island = island
 
     def __call__(self, texels, colours, read, progress=None):
-        colours = np.asarray(colours)
-        lab = to_oklab(colours[:, :3])
-        lightness = lab[:, 0]
-        middles = band_middles(lightness, self.levels)
-        position = band_position(lightness, middles)
-        shift = sharpest = change = None
-        if self.size is not None:
-            shift = _islands(np.rint(position).astype(np.int64), texels[0], self.size)
-            change = _change(position, texels[0], self.size)
-            sharpest = 1.0 / (STEP_TEXELS * change)
-            position = np.clip(position + shift, 0.0, self.levels - 1.0)
-        values = band_values(lightness, np.rint(position).astype(np.int64), self.levels)
-        out = np.array(colours, dtype=np.float64 if colours.dtype.kind != "f" else colours.dtype)
-        out[:, :3] = quantise_lightness(colours[:, :3], self.levels, self.softness, middles, values, shift, sharpest,
-                                        lab)
+        out, position, change = self.bands(texels, colours)
         if change is not None and self.outlines > 0:
             ink = self.outlines * _borders(position, change, self.levels, self.size)
             out[:, :3] = out[:, :3] + ink[:, None] * (OUTLINE_INK - out[:, :3])
         if progress is not None:
             progress(1.0)
         return out, None
+
+    def bands(self, texels, colours, shift=None):
+        """The texels' ``colours`` (M, C) in the bands: ``(colours (M, C), band position (M,), its change a
+        texel (M,) or None without the atlas's size)``.  ``shift`` (M,): bands' widths to move each texel's
+        lightness by before it is quantised (a noise wobbles the borders where the lightness changes
+        slowly)."""
+        colours = np.asarray(colours)
+        lab = to_oklab(colours[:, :3])
+        lightness = lab[:, 0]
+        middles = band_middles(lightness, self.levels)
+        position = band_position(lightness, middles)
+        if shift is not None:
+            position = np.clip(position + shift, 0.0, self.levels - 1.0)
+        moved = shift
+        sharpest = change = None
+        if self.size is not None:
+            islands = _islands(np.rint(position).astype(np.int64), texels[0], self.size, self.island)
+            moved = islands if shift is None else shift + islands
+            change = _change(position, texels[0], self.size)
+            sharpest = 1.0 / (STEP_TEXELS * change)
+            position = np.clip(position + islands, 0.0, self.levels - 1.0)
+        values = band_values(lightness, np.rint(position).astype(np.int64), self.levels)
+        out = np.array(colours, dtype=np.float64 if colours.dtype.kind != "f" else colours.dtype)
+        out[:, :3] = quantise_lightness(colours[:, :3], self.levels, self.softness, middles, values, moved, sharpest,
+                                        lab)
+        return out, position, change
 
 
 def _image(values, flat, size, fill):
@@ -157,13 +170,14 @@ def _image(values, flat, size, fill):
     return image.reshape(size, size)
 
 
-def _islands(band, flat, size):
+def _islands(band, flat, size, island=ISLAND):
     """Whole numbers of bands (M,) that move the texels ``flat`` (M,) of islands of one band smaller than
-    :data:`ISLAND` (scaled by the atlas's ``size``) to the band most of their neighbours have."""
+    ``island`` texels of a 1024 x 1024 atlas (scaled by the atlas's ``size``) to the band most of their
+    neighbours have."""
     from scipy import ndimage
 
     image = _image(band, flat, size, -1)
-    smallest = ISLAND * (size / 1024.0) ** 2
+    smallest = island * (size / 1024.0) ** 2
     small = np.zeros((size, size), dtype=bool)
     for k in np.unique(band):
         labels, count = ndimage.label(image == k)

@@ -325,10 +325,12 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
     return figures
 
 
-def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, hatching=True, log=print):
+def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, hatching=True, watercolour=True,
+        log=print):
     """The painterly presets' measures on the three subjects (see :func:`subjects`), with ``oil`` the Oil
-    Paint preset's against Blender's Kuwahara node, with ``toon`` the Toon preset's (:func:`_toon`) and with
-    ``hatching`` the Ink Hatching preset's (:func:`_hatching`); returns them as a dict.
+    Paint preset's against Blender's Kuwahara node, with ``toon`` the Toon preset's (:func:`_toon`), with
+    ``hatching`` the Ink Hatching preset's (:func:`_hatching`) and with ``watercolour`` the Watercolour
+    preset's (:func:`_watercolour`); returns them as a dict.
 
     Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
     subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
@@ -382,6 +384,9 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=Tru
         if hatching:
             figures[f"{subject_name}_hatching"] = _hatching(subject_name, subject, source, mask, texel, size, out_dir,
                                                             log)
+        if watercolour:
+            figures[f"{subject_name}_watercolour"] = _watercolour(subject_name, subject, source, mask, texel, size,
+                                                                  out_dir, log)
     return figures
 
 
@@ -441,6 +446,70 @@ def _toon(subject_name, subject, source, mask, size, log):
     log(f"{subject_name:8s} toon            {100 * row['on_levels']:.0f} % of texels on its {row['levels']} levels, "
         f"outlines along {100 * row['outlines']:.0f} % of the strongest edges, edges {row['edges']:.2f}, "
         f"{ours.seconds:.0f} s")
+    return row
+
+
+def wash_rims(image, flat, mask, rim=2, inside=6, window=31, step=0.02):
+    """How much darker the washes of a watercolour ``image`` are at their borders than inside.  ``flat``: the
+    same run without edge darkening, so the two differ only there.  The borders are where ``flat``'s OKLab
+    lightness spans more than ``step`` over 3 x 3 texels; each texel of ``mask`` within ``rim`` texels of
+    one, on its darker side (the wash laid over the lighter, which dried there), is compared, by its luminance over ``flat``'s, with the texels at least ``inside`` texels from any
+    border in the ``window`` around it.  Returns ``(median share darker, share of those texels at least
+    15 % darker)``."""
+    from cp_stylize.oklab import to_oklab
+
+    lightness = to_oklab(np.asarray(flat)[..., :3].astype(np.float64))[..., 0]
+    border = ndimage.maximum_filter(lightness, 3) - ndimage.minimum_filter(lightness, 3) > step
+    distance = ndimage.distance_transform_edt(~border)
+    ratio = luminance(image) / np.maximum(luminance(flat), 1e-6)
+    far = (mask & (distance >= inside)).astype(np.float64)
+    count = ndimage.uniform_filter(far, window)
+    mean = ndimage.uniform_filter(ratio * far, window) / np.maximum(count, 1e-12)
+    darker_side = lightness < ndimage.maximum_filter(lightness, 2 * rim + 3) - step     # a lighter wash beside it
+    edge = mask & (distance <= rim) & darker_side & (count > 0.05)
+    darker = 1.0 - ratio[edge] / np.maximum(mean[edge], 1e-9)
+    if not len(darker):
+        return 0.0, 0.0
+    return float(np.median(darker)), float(np.mean(darker >= 0.15))
+
+
+def grain_contrast(image, smooth, mask, sigma=3.0):
+    """The standard deviation of ``image``'s luminance about its Gaussian blur (deviation ``sigma`` texels): how
+    strongly a fine texture (granulation) shows.  Over the texels of ``mask`` where ``smooth`` (the same run
+    without the texture) is calm: no edge, rim or line within three deviations."""
+    light = luminance(image)
+    fine = light - ndimage.gaussian_filter(light, sigma)
+    calm = ndimage.binary_erosion(_colour_gradient(smooth, 1.0) < 0.01, iterations=int(3 * sigma))
+    calm &= _inner(mask, 3 * sigma)
+    return float(fine[calm].std())
+
+
+def _watercolour(subject_name, subject, source, mask, texel, size, out_dir, log):
+    """The Watercolour preset's measures on a subject, given the run that changes nothing (``source``): how much
+    darker its washes are at their borders (:func:`wash_rims`, over the borders that dried hard, without its pen
+    lines and granulation), its granulation (:func:`grain_contrast`, against the washes without it), and the edge
+    measure at half the oil paint's size."""
+    import os
+
+    from cp_stylize.presets import load_preset
+    from cp_stylize.texture import write_png
+
+    wash = load_preset("watercolour")
+    ours = _run(subject, wash, size)
+    write_png(os.path.join(out_dir, f"{subject_name}_watercolour.png"), ours.image)
+    hard = wash.replace(line_width=0.0, wash_bleed=0.0, wash_granulation=0.0)
+    rimmed = _run(subject, hard, size)
+    flat = _run(subject, hard.replace(wash_edges=0.0), size)
+    smooth = _run(subject, wash.replace(wash_granulation=0.0), size)
+    darker, share = wash_rims(rimmed.image, flat.image, mask)
+    row = {"rims_darker": darker, "rims_share_15": share,
+           "grain": grain_contrast(ours.image, smooth.image, mask),
+           "grain_without": grain_contrast(smooth.image, smooth.image, mask),
+           "edges": edge_survival(ours.image, source.image, 0.5 * wash.oil_size / texel, mask),
+           "seconds": ours.seconds}
+    log(f"{subject_name:8s} watercolour     rims {100 * darker:.0f} % darker than inside (median; {100 * share:.0f} % "
+        f"of the rims' texels at least 15 %), granulation {row['grain']:.3f} against {row['grain_without']:.3f} "
+        f"without, edges {row['edges']:.2f}, {ours.seconds:.0f} s")
     return row
 
 

@@ -223,3 +223,38 @@ def test_ink_hatching_keeps_the_subject_in_paper_and_ink_with_even_lines(torus):
     assert edge_survival(result.image, source.image, made[0].spacing / texel, mask) >= 0.8
     across, inside = seam_step(result.image, np.arange(size))
     assert across <= 1.5 * inside
+
+
+def test_watercolour_darkens_its_washes_at_their_borders_grains_them_and_keeps_the_subject(torus):
+    """The Watercolour preset on a picture: washes at least 15 % darker at the borders that dried hard than
+    inside, granulation that shows against the same washes without it, the subject's edges kept at the
+    oil paint's scale, and no step across the UV seam."""
+    from cp_stylize_dev.looks import edge_survival, grain_contrast, seam_step, wash_rims
+
+    size = 512
+    vertices, faces, uvs = torus
+    rng = np.random.default_rng(4)
+    v, u = np.mgrid[0:size, 0:size] / size
+    broad = ndimage.gaussian_filter(rng.random((size, size, 3)), (24, 24, 0), mode="wrap")   # a painting's areas
+    broad = (broad - broad.min()) / (broad.max() - broad.min())
+    discs = ((np.sin(2 * np.pi * 3 * u) * np.sin(2 * np.pi * 2 * v)) > 0.4)[..., None]
+    picture = np.clip(0.15 + 0.6 * broad + 0.3 * discs, 0, 1).astype(np.float32)
+    colours = ColourInput(textures=[Texture(picture, uvs, np.ones(len(faces), bool))])
+    settings = load_preset("watercolour").replace(spacing=0.016, image_size=size)
+
+    def run(**changes):
+        return stylize(vertices, faces, colours, settings.replace(**changes), uvs=uvs)
+
+    result = run()
+    hard = dict(line_width=0.0, wash_bleed=0.0, wash_granulation=0.0)
+    source = stylize(vertices, faces, colours, StylizeSettings(mode="eed", T=1e-6, spacing=0.016, image_size=size),
+                     uvs=uvs)
+    mask = result.atlas.coverage.reshape(size, size)
+    darker, share = wash_rims(run(**hard).image, run(**hard, wash_edges=0.0).image, mask)
+    assert darker >= 0.15 and share >= 0.5
+    smooth = run(wash_granulation=0.0).image
+    assert grain_contrast(result.image, smooth, mask) > 3 * grain_contrast(smooth, smooth, mask)
+    texel = 2.0 / 2.9 * 2 * np.pi * 1.0 / size        # along u at the torus's middle, normalised to a diameter of 2
+    assert edge_survival(result.image, source.image, 0.5 * settings.oil_size / texel, mask) >= 0.8
+    across, inside = seam_step(result.image, np.arange(size))
+    assert across <= 1.5 * inside

@@ -7,7 +7,7 @@ from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, pa
 from cp_stylize.strokes import LENGTH_SPREAD
 
 REQUIRED = {"starry_night", "sunflower_vase", "van_gogh_form", "denoise_eed", "perona_malik", "gaussian_blur",
-            "hatching", "woodcut"}
+            "hatching", "woodcut", "watercolour"}
 PAINTERLY = ("starry_night", "van_gogh_form", "sunflower_vase")
 
 
@@ -89,7 +89,8 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\nT = -1.0', "T must lie in [1e-06, 0.1], got -1.0"),
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
                                 "'detail', 'contours', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', "
-                                "'oil', 'toon', 'lines', 'hatching', 'output']"),
+                                "'oil', 'toon', 'watercolour', 'lines', 'hatching', "
+                                "'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',

@@ -226,6 +226,16 @@ class VIEW3D_PT_cp_stylize_toon(_Closed, bpy.types.Panel):
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Line Width")
 
 
+class VIEW3D_PT_cp_stylize_watercolour(_Closed, bpy.types.Panel):
+    bl_label = "Watercolour"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        _switched(layout, context.scene.cp_stylize, "wash_levels", ["wash_edges", "wash_granulation", "wash_bleed",
+                                                                    "wash_wobble"])
+        _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Pen Lines")
+
+
 class VIEW3D_PT_cp_stylize_hatching(_Closed, bpy.types.Panel):
     bl_label = "Ink Hatching"
 
@@ -299,5 +309,6 @@ class VIEW3D_PT_cp_stylize_advanced(_Closed, bpy.types.Panel):
 
 
 classes = (VIEW3D_PT_cp_stylize_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
-           VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_hatching, VIEW3D_PT_cp_stylize_palette,
+           VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_watercolour, VIEW3D_PT_cp_stylize_hatching,
+           VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output, VIEW3D_PT_cp_stylize_advanced)

@@ -66,13 +66,15 @@ def test_every_panel_draws_for_every_mode(registered, mode):
     context = bpy.context
     log = []
     for cls in (panel.VIEW3D_PT_cp_stylize, panel.VIEW3D_PT_cp_stylize_paint, panel.VIEW3D_PT_cp_stylize_oil,
-                panel.VIEW3D_PT_cp_stylize_toon, panel.VIEW3D_PT_cp_stylize_palette, panel.VIEW3D_PT_cp_stylize_output,
+                panel.VIEW3D_PT_cp_stylize_toon, panel.VIEW3D_PT_cp_stylize_watercolour,
+                panel.VIEW3D_PT_cp_stylize_palette, panel.VIEW3D_PT_cp_stylize_output,
                 panel.VIEW3D_PT_cp_stylize_advanced, panel.VIEW3D_PT_cp_stylize_presets):
         cls.draw(types.SimpleNamespace(layout=FakeLayout(log)), context)
     # the mode's own parameters, and the size views of lengths and times by the name of what they show
     props = {name.removeprefix(mode + "_").removesuffix("_size") for kind, name in log if kind == "prop"}
     assert {"mode", "quality", "time", "strokes", "stroke_width", "stroke_layers", "stroke_jitter", "swirl", "relief",
-            "contours", "noise_mapping"} <= props
+            "contours", "noise_mapping", "wash_levels", "wash_edges", "wash_granulation", "wash_bleed",
+            "wash_wobble"} <= props
     assert ("rho" in props) == (mode in ("eed", "ced")) and ("alpha" in props) == (mode in ("ced", "flow"))
     assert {p.name for p in FILTERS[mode].parameters} <= props
     assert ("operator", "object.cp_stylize") in log

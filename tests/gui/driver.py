@@ -159,8 +159,9 @@ def scenario_panel():
     """The sidebar's Stylize tab, with every panel open, for every mode."""
     panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
     # open the Oil Paint, Toon and Palette sub-panels, which start closed; the order stays
-    after = [panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_hatching,
-             panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
+    after = [panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_watercolour,
+             panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette,
+             panels.VIEW3D_PT_cp_stylize_output]
     for cls in reversed(after):
         bpy.utils.unregister_class(cls)
     for cls in after:
@@ -202,9 +203,18 @@ def scenario_panel():
     screenshot("panel_toon", sidebar)
     facts["toon"] = {"toon_levels": settings.toon_levels, "toon_outlines": settings.toon_outlines,
                      "line_width": settings.line_width}
-    # the Ink Hatching preset, with the Toon sub-panel out of the way too
-    in_view3d(bpy.ops.cp_stylize.preset_load, name="hatching")
+    # the Watercolour preset, with the Toon sub-panel out of the way too
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="watercolour")
     bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_toon)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_watercolour", sidebar)
+    facts["watercolour"] = {"wash_levels": settings.wash_levels, "oil_size": settings.oil_size,
+                            "labels": [settings.bl_rna.properties[name].name for name in
+                                       ("wash_edges", "wash_granulation", "wash_bleed", "wash_wobble")]}
+    # the Ink Hatching preset, with the Watercolour sub-panel out of the way too
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="hatching")
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_watercolour)
     area.tag_redraw()
     yield 1.5
     screenshot("panel_hatching", sidebar)
@@ -219,8 +229,9 @@ def scenario_panel():
     screenshot("panel_output", sidebar)
     facts["output_labels"] = [settings.bl_rna.properties[name].name for name in ("memory_limit", "time_limit")]
     bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_output)      # back in their order
-    aside += [panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_hatching,
-              panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
+    aside += [panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_watercolour,
+              panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette,
+              panels.VIEW3D_PT_cp_stylize_output]
     for cls in aside:
         bpy.utils.register_class(cls)
     # the preset menu, a picture of each preset over its name
@@ -235,8 +246,8 @@ def scenario_panel():
     # the Advanced sub-panel opened, with the others out of the way: the filter's own parameters
     in_view3d(bpy.ops.cp_stylize.preset_load, name="denoise_eed")
     aside = [panels.VIEW3D_PT_cp_stylize_paint, panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon,
-             panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette,
-             panels.VIEW3D_PT_cp_stylize_output]
+             panels.VIEW3D_PT_cp_stylize_watercolour, panels.VIEW3D_PT_cp_stylize_hatching,
+             panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
     for cls in aside:
         bpy.utils.unregister_class(cls)
     # the sub-panel stays closed once drawn closed: the same panel under a name of its own starts open
