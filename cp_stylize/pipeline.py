@@ -37,7 +37,7 @@ from .diffusion import diffuse
 from .extent import diameter
 from .kuwahara import Kuwahara
 from .toon import Toon
-from .watercolour import PAPER as WASH_PAPER, Watercolour
+from .watercolour import Watercolour
 from .hatching import INK, PAPER, Hatching
 from .stars import find_stars, on_band, on_picture
 from .lines import Lines
@@ -226,31 +226,33 @@ def input_colours(colours, settings, channels=3):
     for texture in colours.texture_list:
         image = np.asarray(texture.image)
         image = image[..., :channels] if image.ndim == 3 else image[..., None]
-        distinct = distinct_colours(image).astype(np.float32)
-        found.append(np.pad(distinct, ((0, 0), (0, channels - distinct.shape[1]))))
+        found.append(_in_channels(distinct_colours(image), channels))
     if colours.corner_colours is not None:
         corners = np.asarray(colours.corner_colours, dtype=np.float32)
-        corners = corners.reshape(-1, corners.shape[-1])[:, :channels]
-        found.append(np.pad(corners, ((0, 0), (0, channels - corners.shape[1]))))
+        found.append(_in_channels(corners.reshape(-1, corners.shape[-1]), channels))
     if (settings.noise_on or settings.strokes > 0) and settings.palette:   # the noise and the strokes paint with it
         found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
     if settings.line_width > 0 or (settings.toon_levels and settings.toon_outlines > 0):   # ink goes to black
         found.append(np.zeros((1, channels), np.float32))
     if settings.wash_levels:                                     # watercolour: its paper, and pigment pooled dark
-        found.append(np.pad(np.float32([WASH_PAPER, (0.0, 0.0, 0.0)])[:, :channels],
-                            ((0, 0), (0, max(0, channels - 3)))))
+        found.append(_in_channels([PAPER, (0.0, 0.0, 0.0)], channels))
     if settings.hatch_spacing > 0:                               # hatching: ink and paper alone
-        found.append(np.pad(np.float32(hatch_colours(settings))[:, :channels], ((0, 0), (0, max(0, channels - 3)))))
+        found.append(_in_channels(hatch_colours(settings), channels))
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)
-        found.append(np.zeros((1, channels), np.float32) if ink is None else
-                     np.pad(np.float32(ink)[None, :channels], ((0, 0), (0, max(0, channels - 3)))))
+        found.append(np.zeros((1, channels), np.float32) if ink is None else _in_channels([ink], channels))
     covered = colours.corner_colours is not None or (
         bool(colours.textures) and np.all(np.any([np.asarray(t.faces, bool) for t in colours.texture_list], axis=0)))
     clipped = any("clip" in t.wrap for t in colours.texture_list)
     if not covered or clipped:
         found.append(np.zeros((1, channels), np.float32))      # faces that nothing colours, and CLIP, read black
     return np.concatenate(found)
+
+
+def _in_channels(rows, channels):
+    """Colour rows (K, c) as float32 (K, channels): cut to ``channels``, any channel they lack 0."""
+    rows = np.asarray(rows, dtype=np.float32)[:, :channels]
+    return np.pad(rows, ((0, 0), (0, channels - rows.shape[1])))
 
 
 def palette_colours(values, settings):

@@ -45,13 +45,12 @@ from __future__ import annotations
 import numpy as np
 
 from .texture import linear_to_srgb, srgb_to_linear
+from .hatching import PAPER            # the same warm white paper as the ink's
 from .oklab import from_oklab, to_oklab
 from .toon import Toon
 
 __all__ = ["solid_noise", "Watercolour", "PAPER"]
 
-#: The paper (sRGB): a warm white.
-PAPER = (0.97, 0.955, 0.92)
 #: A wash darkens towards its border, inside it, over about this many texels of a 1024 x 1024 atlas; by up to
 #: this share less from place to place, in patches of about this wavelength.
 RIM_TEXELS, RIM_VARIES, RIM_WAVELENGTH = 4.0, 0.4, 0.15
@@ -177,17 +176,8 @@ class Watercolour:
         # next wash is lighter (the darker wash was laid over the lighter and dried there)
         nearest = nearest_texels(flat, self.size)
         wash = nearest_filled(np.rint(position), flat, self.size, nearest)
-        border = np.zeros(wash.shape, dtype=bool)          # the texels on either side of a step
-        edge = np.zeros(wash.shape, dtype=bool)            # those on its darker side
-        down, across = wash[1:] != wash[:-1], wash[:, 1:] != wash[:, :-1]
-        border[1:] |= down
-        border[:-1] |= down
-        border[:, 1:] |= across
-        border[:, :-1] |= across
-        edge[1:] |= wash[1:] < wash[:-1]
-        edge[:-1] |= wash[:-1] < wash[1:]
-        edge[:, 1:] |= wash[:, 1:] < wash[:, :-1]
-        edge[:, :-1] |= wash[:, :-1] < wash[:, 1:]
+        border = _beside(wash, np.not_equal)               # the texels on either side of a step
+        edge = _beside(wash, np.less)                      # those on its darker side
         away = ndimage.distance_transform_edt(~border).ravel()[flat]
         inward, (rows, cols) = ndimage.distance_transform_edt(~edge, return_indices=True)
         inward = np.where(wash.ravel()[flat] == wash[rows, cols].ravel()[flat], inward.ravel()[flat], np.inf)
@@ -227,3 +217,14 @@ class Watercolour:
         if progress is not None:
             progress(1.0)
         return out, None
+
+
+def _beside(image, relation):
+    """The texels (H, W) of ``image`` (H, W) that stand in ``relation`` (``relation(texel, neighbour)``, such as
+    :func:`numpy.less`) to at least one of their four neighbours."""
+    found = np.zeros(image.shape, dtype=bool)
+    found[1:] |= relation(image[1:], image[:-1])
+    found[:-1] |= relation(image[:-1], image[1:])
+    found[:, 1:] |= relation(image[:, 1:], image[:, :-1])
+    found[:, :-1] |= relation(image[:, :-1], image[:, 1:])
+    return found

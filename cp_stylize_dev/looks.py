@@ -453,8 +453,9 @@ def wash_rims(image, flat, mask, rim=2, inside=6, window=31, step=0.02):
     """How much darker the washes of a watercolour ``image`` are at their borders than inside.  ``flat``: the
     same run without edge darkening, so the two differ only there.  The borders are where ``flat``'s OKLab
     lightness spans more than ``step`` over 3 x 3 texels; each texel of ``mask`` within ``rim`` texels of
-    one, on its darker side (the wash laid over the lighter, which dried there), is compared, by its luminance over ``flat``'s, with the texels at least ``inside`` texels from any
-    border in the ``window`` around it.  Returns ``(median share darker, share of those texels at least
+    one, on its darker side (the wash laid over the lighter, which dried there), is compared, by its
+    luminance over ``flat``'s, with the texels at least ``inside`` texels from any border in the ``window``
+    around it.  Returns ``(median share darker, share of those texels at least
     15 % darker)``."""
     from cp_stylize.oklab import to_oklab
 
