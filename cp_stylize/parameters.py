@@ -39,14 +39,15 @@ class Parameter:
     maximum: float
     default: float
     unit: str = "ratio"      # "time", "length", "ratio" or "count" (a whole number)
-    precision: int = None    # digits the panel shows: by default 2 for a ratio (a share or strength), else 6
+    precision: int = None    # decimals the panel shows: by default 2 for a ratio (a share or strength), else 5;
+    #                          Blender shows up to three significant digits of a value below 10^-precision
     step: float = 0.001      # the panel's drag step (Blender's units of 1/100)
     file: tuple = (None, None)   # a run parameter's place in a preset file: (table or None for the top, key)
     size_name: str = ""      # a time's label as a size (the blur's radius), where it differs from ``label``
 
     def __post_init__(self):
         if self.precision is None:
-            object.__setattr__(self, "precision", 2 if self.unit == "ratio" else 6)
+            object.__setattr__(self, "precision", 2 if self.unit == "ratio" else 5)
 
     @property
     def sized(self):
@@ -251,7 +252,7 @@ FILTER_PARAMETERS = {p.name: p for p in (
                                 "direction field (0 to 1)", 0.0, 1.0, 1e-3, precision=4, step=0.01),
     Parameter("b_rel", "Threshold", "CED's coherence threshold B, relative to the largest coherence of "
                                     "the input; smaller values draw strokes in weaker structure",
-              0.0, 1.0, 1e-3, precision=7, step=0.0001),
+              0.0, 1.0, 1e-3, precision=5, step=0.0001),
     Parameter("beta", "Across", "Flow: largest diffusivity across the direction field, beta / (1 + "
                                 "(|grad u_sigma| / lambda)^2)", 0.0, 1.0, 0.05, precision=4, step=0.01),
     Parameter("contrast", "Contrast", "Flow: how far values are pushed towards black or white over the run "

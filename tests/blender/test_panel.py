@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from cp_stylize.parameters import AXIS_DIRECTIONS, DIRECTED_MODES, DIRECTIONS, FILTERS  # noqa: E402
+from cp_stylize.parameters import AXIS_DIRECTIONS, DIRECTED_MODES, DIRECTIONS, FILTERS, MODES  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -272,10 +272,17 @@ def test_the_main_panel_shows_sizes_and_the_advanced_one_the_filters_own_paramet
     assert "time_size" in main and "time" not in main and not any(n.startswith("ced_") for n in main)
     assert {"time", "ced_sigma_size", "ced_rho_size", "ced_alpha", "ced_b_rel"} <= advanced
     assert panel.VIEW3D_PT_cp_stylize_advanced.bl_options == {"DEFAULT_CLOSED"}
-    # no field shows more than four decimals but the raw time, which only the Advanced panel shows
+    # no field shows more than four decimals but the filter's own, which only the Advanced panel shows, and
+    # none there six (Blender shows more only for a value below 10^-precision, at most three digits of it)
     rna = registered.bl_rna.properties
     wide = {name for name in main if rna[name].type == "FLOAT" and rna[name].precision > 4}
     assert not wide, wide
+    for mode in MODES:
+        registered.mode = mode
+        shown = []
+        panel.VIEW3D_PT_cp_stylize_advanced.draw(types.SimpleNamespace(layout=FakeLayout(shown)), bpy.context)
+        wide = {name for kind, name in shown if kind == "prop" and rna[name].type == "FLOAT" and rna[name].precision > 5}
+        assert not wide, (mode, wide)
 
 
 def test_each_mode_keeps_its_own_parameters(registered):
