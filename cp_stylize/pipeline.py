@@ -231,7 +231,7 @@ def input_colours(colours, settings, channels=3):
         corners = np.asarray(colours.corner_colours, dtype=np.float32)
         found.append(_in_channels(corners.reshape(-1, corners.shape[-1]), channels))
     if (settings.noise_on or settings.strokes > 0) and settings.palette:   # the noise and the strokes paint with it
-        found.append(np.asarray(settings.palette, dtype=np.float32)[:, :channels])
+        found.append(_in_channels(settings.palette, channels))
     if settings.line_width > 0 or (settings.toon_levels and settings.toon_outlines > 0):   # ink goes to black
         found.append(np.zeros((1, channels), np.float32))
     if settings.wash_levels:                                     # watercolour: its paper, and pigment pooled dark

@@ -238,3 +238,21 @@ def test_strokes_and_contours_without_a_palette_paint_the_pictures_own_colours(t
                                stroke_length=0.4, contours=0.5, relief=0.5)
     result = stylize(vertices, faces, colours, settings, uvs=uvs)
     assert np.isfinite(result.image).all() and result.height is not None and result.height.max() > 0.3
+
+
+def test_the_input_colours_hull_takes_every_colour_a_run_paints_in_its_channels():
+    from cp_stylize.pipeline import input_colours
+
+    image = np.zeros((4, 4, 4), np.float32)
+    image[..., 3] = 1.0
+    colours = ColourInput(textures=[(image, np.zeros((1, 3, 2)), np.ones(1, bool))])
+    settings = load_preset("starry_night")                  # strokes in its palette, contour ink
+    for channels in (3, 4):
+        found = input_colours(colours, settings, channels=channels)
+        assert found.shape[1] == channels
+        palette = np.asarray(settings.palette, np.float32)
+        # the palette's colours are among them, with no alpha of their own (0)
+        assert all(np.any(np.all(np.isclose(found[:, :3], row), axis=1)) for row in palette)
+        if channels == 4:
+            rows = np.all(np.isclose(found[:, :3], palette[0]), axis=1)
+            assert np.all(found[rows, 3] == 0.0)
