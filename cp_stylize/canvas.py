@@ -29,6 +29,12 @@ from .sparse import map_parallel
 
 __all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 
+#: A dab's full height (a height of 1), as a share of the widest strokes' width: the relief's depth (the Bump
+#: node's distance at Relief 1, and the height Sheen lights).  Deep enough that the strokes' ridges and
+#: furrows read under an ordinary key light, low enough that a dab's flanks shade softly and its colour
+#: reads through them; a raking light shows every stroke.
+THICKNESS = 0.05
+
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
 #: gone at twice.
 CLIP = 0.2

@@ -45,6 +45,10 @@ SECONDS_PER_RUN = 0.9
 #: stroke fields, and the share of an atlas's texels that are baked (islands and margin).
 SECONDS_STROKES_PER_TEXEL = 2.5e-6
 SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
+#: Sheen (the relief lit into the colour): seconds per baked texel (a 2048 x 2048 atlas whole: 3 s on two
+#: busy cores), and bytes per texel of the atlas (its texels' places in it).
+SECONDS_SHEEN_PER_TEXEL = 8e-7
+BYTES_SHEEN_PER_TEXEL = 4
 BAKED_SHARE = 0.6
 #: Oil paint (:mod:`cp_stylize.kuwahara`): seconds per band point for the sectors' statistics, and per
 #: baked texel for reading them at the bake-out; bytes per band point and per baked texel for them.
@@ -103,6 +107,9 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
         layers = settings.stroke_layers
         seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
     nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    if settings.strokes > 0 and settings.sheen > 0:
+        seconds += BAKED_SHARE * texels * SECONDS_SHEEN_PER_TEXEL
+        nbytes += texels * BYTES_SHEEN_PER_TEXEL
     if settings.oil_size > 0:
         seconds += n_points * SECONDS_OIL_PER_POINT + BAKED_SHARE * texels * SECONDS_OIL_PER_TEXEL
         nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL

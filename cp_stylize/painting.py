@@ -17,7 +17,7 @@ from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab
-from .canvas import Texels, paint
+from .canvas import THICKNESS, Texels, paint
 from .lines import inked
 from .stroke_field import StrokeField
 from .strokes import place_dabs
@@ -37,6 +37,18 @@ LINE_EDGE = 0.04
 #: closing disc of this share of the finest dabs' width, and at least 1.5 texels.
 THIN = 2.5
 THIN_RADIUS = 0.4
+#: Sheen (:func:`_sheen`) lights the paint's relief as if it stood this many times higher than the Bump node
+#: shows it at Relief 1 (:data:`cp_stylize.canvas.THICKNESS`): the colour alone has to carry it.
+SHEEN_DEPTH = 2.0
+#: At Sheen 1, a flank turned fully to the light goes this share of the way to white, one turned fully away
+#: this share of the way to black.
+SHEEN_LIGHT, SHEEN_SHADE = 0.5, 0.4
+#: The height's slope is taken over this share of the first layer's dab width (at least a texel) each way:
+#: the light shows the dabs' bodies, rims and edges, not each bristle groove (which, lit texel by texel,
+#: reads as an engraved comb of even lines).
+SHEEN_REACH = 0.05
+#: Sheen lights this many texels at a time (its memory is a few hundred bytes a texel of them).
+SHEEN_CHUNK = 1 << 18
 
 
 class Painting:
@@ -57,13 +69,15 @@ class Painting:
     OKLab lightness and the band's colours', kept within
     :data:`GRAIN_REACH`, is added to the painted lightness, and the
     picture's thin dark lines, too thin for a dab, are inked over the strokes
-    (:data:`THIN`), under the contours.
+    (:data:`THIN`), under the contours.  ``sheen`` in [0, 1]: how much of
+    the light and shade of the paint's own relief is painted into its colour
+    (:func:`_sheen`).
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
-                 recolour=None, jitter=None, detail=0.0):
+                 recolour=None, jitter=None, detail=0.0, sheen=0.0):
         self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
-        self.detail = float(detail)
+        self.detail, self.sheen = float(detail), float(sheen)
         self.contours = float(contours)
         self.ink = None if ink is None else np.asarray(ink, dtype=np.float64)
         self.columns = None if lines is None or self.contours <= 0 else np.asarray(lines, dtype=np.float32)
@@ -88,6 +102,10 @@ class Painting:
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
+            if self.sheen > 0:
+                widest = float(np.median(dabs.width[dabs.layer == dabs.layer.min()]))
+                reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
+                out = _sheen(out, height, where, THICKNESS * widest, self.sheen, reach)
             if source is not None:
                 # the picture's lightness at the texture's resolution over the band's: its detail
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
@@ -111,6 +129,69 @@ class Painting:
         return inked(colours, amount, self.ink)
 
 
+def _sheen(painted, height, texels, thickness, strength, reach=1):
+    """``painted`` (M, 3, sRGB) at the :class:`~cp_stylize.canvas.Texels` ``texels``, lit by its own
+    ``height`` (M,; ``thickness`` long at 1, in the texels' lengths): the light and shade the paint's relief
+    takes under the form light (:data:`cp_stylize.hatching.LIGHT`, fixed to the object, so it turns with
+    it), over what the surface takes without it, so the renderer's own light still shades the form.
+
+    The height's gradient on the surface comes from its differences between the texels ``reach`` texels
+    ahead of and behind each along the atlas's axes (those of the margin continue the surface), and tilts
+    the normal (:data:`SHEEN_DEPTH`).  The light comes at each texel from the surface's side (mirrored
+    where the surface turns away from it), so the relief reads on every side of the object, as under a
+    raking light, and a flank turned to it lightens towards white (``strength`` times
+    :data:`SHEEN_LIGHT` at most) where one turned away darkens (:data:`SHEEN_SHADE`)."""
+    from .hatching import LIGHT
+
+    flat, size = texels.flat, texels.size
+    position = np.full(size * size, -1, dtype=np.int32)      # atlas texel -> its index among them, or -1
+    position[flat] = np.arange(len(flat), dtype=np.int32)
+    out = np.array(painted, dtype=np.float64)
+    for start in range(0, len(flat), SHEEN_CHUNK):
+        part = slice(start, start + SHEEN_CHUNK)
+        here = flat[part]
+        column, row = here % size, here // size
+        own = np.arange(start, start + len(here))
+        ends = []
+        for step, after, before in ((1, column < size - reach, column >= reach),
+                                    (size, row < size - reach, row >= reach)):
+            ends.append([_beside(position, here, reach * step * sign, inside, own)
+                         for sign, inside in ((1, after), (-1, before))])
+        lit = _relief_light(texels.points, texels.normals[part], height, ends, thickness, LIGHT)
+        shine = np.where(lit > 0, (1.0 - out[part]) * (SHEEN_LIGHT * lit), out[part] * (SHEEN_SHADE * lit))
+        out[part] += strength * shine
+    return out
+
+
+def _beside(position, flat, step, inside, own):
+    """The index (``position``: by atlas texel) of each atlas texel ``flat`` ``step`` texels on in the atlas,
+    where that lies ``inside`` the atlas and is one of the texels, else its ``own``."""
+    found = np.where(inside, position[np.where(inside, flat + step, 0)], -1)
+    return np.where(found >= 0, found, own)
+
+
+def _relief_light(points, normals, height, ends, thickness, light):
+    """How much lighter (> 0) or darker (< 0), in [-1, 1], the relief ``height`` (``thickness`` long at 1)
+    makes texels with unit ``normals`` (K, 3) under ``light`` (see :func:`_sheen`): the Lambert term of the
+    normal tilted by the height's gradient, less the untilted one's.  ``ends``: for the atlas's two axes,
+    the indices (K,) of each texel's neighbours ahead and behind along it among ``points`` and ``height``."""
+    (du, hu), (dv, hv) = [(points[ahead].astype(np.float64) - points[behind],
+                           height[ahead].astype(np.float64) - height[behind]) for ahead, behind in ends]
+    a, b, c = (du * du).sum(1), (du * dv).sum(1), (dv * dv).sum(1)
+    det = a * c - b * b
+    ok = det > 1e-12 * np.maximum(a * c, 1e-300)
+    det = np.where(ok, det, 1.0)
+    gradient = ((c * hu - b * hv) / det)[:, None] * du + ((a * hv - b * hu) / det)[:, None] * dv
+    gradient[~ok] = 0.0
+    normals = normals.astype(np.float64)
+    facing = normals @ light
+    towards = light[None, :] - facing[:, None] * normals + np.abs(facing)[:, None] * normals   # from its side
+    tilted = normals - (SHEEN_DEPTH * thickness) * gradient
+    tilted /= np.linalg.norm(tilted, axis=1, keepdims=True)
+    lit = np.clip(np.einsum("ij,ij->i", tilted, towards) - np.abs(facing), -1.0, 1.0)
+    return np.where(np.any(gradient != 0.0, axis=1), lit, 0.0)[:, None]      # flat paint exactly as it was
+
+
 def _with_grain(painted, fine, strength):
     """``painted`` (M, 3, sRGB) with ``strength`` times the lightness detail ``fine`` (M,, OKLab) kept
     within :data:`GRAIN_REACH`."""
@@ -132,7 +213,7 @@ def _box(values, flat, size):
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
-             weights=None, field=None, source=None, recolour=None, detail=0.0, level=None):
+             weights=None, field=None, source=None, recolour=None, detail=0.0, level=None, sheen=0.0):
     """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
 
     Parameters
@@ -164,6 +245,8 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     detail : float in [0, 1]
         How much of the picture's lightness detail, finer than the band, shows in the strokes (with
         ``source``; see :class:`Painting`).
+    sheen : float in [0, 1]
+        How much of the paint's relief is lit into its colour (see :class:`Painting`).
     """
     values = np.asarray(values).reshape(band.size, -1)[:, :3]
     structure = values if structure is None else np.asarray(structure).reshape(band.size, -1)[:, :3]
@@ -183,4 +266,4 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         lines = contour_field(band, structure, line_width(finest, band.h), fields[-1].direction)
     return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
                     contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter,
-                    detail=detail if dabs is not None else 0.0)
+                    detail=detail if dabs is not None else 0.0, sheen=sheen)

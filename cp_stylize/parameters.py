@@ -237,6 +237,10 @@ RUN = {p.name: p for p in (
     Parameter("relief", "Relief", "Height of the paint: the strokes' ridges and bristle grooves as a height "
                                   "image, wired through a Bump node, this strong (0: colour only)", 0.0, 1.0, 0.0,
               file=("strokes", "relief")),
+    Parameter("sheen", "Sheen", "Light and shade of the paint's relief painted into its colour, under a light "
+                                "from the object's upper left front (it turns with the object), so the strokes' "
+                                "body reads in a flat view, an unlit material or a game engine (0: none)",
+              0.0, 1.0, 0.0, file=("strokes", "sheen")),
 )}
 
 #: Seeds of the random noise: whole numbers a 32-bit integer holds, as Blender's integer properties do.

@@ -204,6 +204,7 @@ class StylizeSettings:
     keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
     relief: float = RUN["relief"].default          # the strokes' height, as a second image
+    sheen: float = RUN["sheen"].default            # the relief's light and shade in the colour
     oil_size: float = RUN["oil_size"].default      # oil paint: the Kuwahara filter's radius (cp_stylize.kuwahara)
     oil_sharpness: float = RUN["oil_sharpness"].default
     oil_eccentricity: float = RUN["oil_eccentricity"].default

@@ -398,3 +398,63 @@ def test_the_pictures_horizontal_is_its_u_axis_on_each_face():
     assert np.all(level[~some] == 0)                                       # no picture there
     turned = picture_level(mesh, ColourInput(textures=[Texture(image, uvs[:, :, ::-1], some)]))
     np.testing.assert_allclose(np.abs(turned[some, 1]), 1.0, atol=1e-9)    # its u along y
+
+
+def _plane_texels(size, normal_z=1.0):
+    """Texels of a square atlas on the plane z = 0, one texel 0.01 long, the normal +z or -z."""
+    row, column = np.divmod(np.arange(size * size), size)
+    points = np.column_stack([0.01 * column, 0.01 * row, np.zeros(size * size)])
+    normals = np.tile([0.0, 0.0, normal_z], (size * size, 1))
+    return Texels(points, normals, np.zeros(size * size, int), np.full(size * size, 0.01), np.arange(size * size),
+                  size * size, size, np.zeros((0, 3, 2)), np.zeros((0, 3, 3)))
+
+
+def test_sheen_lights_the_flank_of_a_ridge_towards_the_form_light_and_shades_the_other(monkeypatch):
+    from cp_stylize import painting
+    from cp_stylize.hatching import LIGHT
+    from cp_stylize.painting import SHEEN_LIGHT, SHEEN_SHADE, _sheen
+
+    size = 96
+    texels = _plane_texels(size)
+    across = texels.points[:, :2] @ (LIGHT[:2] / np.linalg.norm(LIGHT[:2]))   # towards the light, on the plane
+    middle = np.median(across)
+    height = np.exp(-((across - middle) / 0.1) ** 2)                 # a ridge at right angles to the light
+    painted = np.full((size * size, 3), 0.4)
+    out = _sheen(painted, height, texels, 0.1, 1.0)[:, 0]
+    toward, away = np.abs(across - middle - 0.07) < 0.01, np.abs(across - middle + 0.07) < 0.01
+    far = np.abs(across - middle) > 0.35
+    assert out[toward].min() > 0.45 and out[away].max() < 0.35       # its flank to the light lit, the other shaded,
+    assert far.sum() > 1000 and np.allclose(out[far], 0.4, atol=1e-3)   # flat paint as it was
+    assert np.all(out <= 0.4 + 0.6 * SHEEN_LIGHT + 1e-9) and np.all(out >= 0.4 * (1 - SHEEN_SHADE) - 1e-9)
+    half = _sheen(painted, height, texels, 0.1, 0.5)[:, 0]
+    assert np.allclose(half - 0.4, 0.5 * (out - 0.4))                 # the setting scales it
+    assert np.array_equal(_sheen(painted, height, texels, 0.1, 0.0), painted)
+    # a surface turned away from the light takes it from its own side: the relief reads there too, alike
+    back = _sheen(painted, height, _plane_texels(size, -1.0), 0.1, 1.0)[:, 0]
+    assert back[toward].min() > 0.45 and back[away].max() < 0.35
+    # bristle grooves 2 * reach texels apart leave no mark in the light; the ridge they lie on still shows
+    column = np.arange(size * size) % size
+    combed = _sheen(painted, height + 0.3 * np.cos(np.pi * column / 2), texels, 0.1, 1.0, reach=2)[:, 0]
+    plain = _sheen(painted, height, texels, 0.1, 1.0, reach=2)[:, 0]
+    inside = (column >= 2) & (column < size - 2)
+    assert np.allclose(combed[inside], plain[inside], atol=1e-9) and plain[toward].min() > 0.45
+    assert np.abs(_sheen(painted, height + 0.3 * np.cos(np.pi * column / 2), texels, 0.1, 1.0)[:, 0]
+                  - out)[inside].max() > 0.1                         # lit texel by texel, they would
+    monkeypatch.setattr(painting, "SHEEN_CHUNK", 1000)               # a few texels at a time: the same
+    assert np.allclose(_sheen(painted, height, texels, 0.1, 1.0)[:, 0], out, rtol=0, atol=1e-12)
+
+
+def test_a_painting_with_sheen_lights_its_dabs_from_their_own_relief_and_changes_nothing_else(sphere):
+    from cp_stylize.painting import Painting
+
+    mesh, band, atlas, texels = sphere
+    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.3, 0.3, 0.6))
+    base = np.full((len(texels.points), 3), 0.5)
+    where = (texels.flat, texels.points, *atlas_points(mesh, atlas, 4)[2:])
+    plain, height = Painting(mesh, atlas, one)(where, base, None)
+    lit, same = Painting(mesh, atlas, one, sheen=1.0)(where, base, None)
+    assert np.array_equal(height, same)                              # the relief itself is as it was
+    change = (lit - plain)[:, 2]
+    assert (change > 0.01).sum() > 10 and (change < -0.01).sum() > 10   # light and shade on the dab,
+    away = texels.points[:, 1] > -0.3                                # and none away from it
+    assert away.sum() > 1000 and np.array_equal(lit[away], plain[away])

@@ -205,7 +205,7 @@ class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
         layout = _split(self.layout)
         _switched(layout, settings, "strokes", [("stroke_width", "Width"), ("stroke_length", "Length"),
                                                 "stroke_layers", "stroke_chain", "stroke_jitter", "swirl", "stars",
-                                                "relief"])
+                                                "relief", "sheen"])
         layout.prop(settings, "contours")
 
 

@@ -194,18 +194,15 @@ def _material_for(obj, index, output, changes, copies):
 #: A UV coordinate this large is no place on a texture: Blender stores an infinite UV as the largest float.
 UV_LIMIT = 1e9
 
-#: A dab's full height, as a share of the widest strokes' width: the relief's Bump distance (Relief 1).  Deep
-#: enough that the strokes' ridges and furrows read under an ordinary key light, low enough that a dab's
-#: flanks shade softly and its colour reads through them; a raking light shows every stroke.
-RELIEF_THICKNESS = 0.05
-
-
 def relief_distance(obj, job):
-    """The Bump node's distance for ``job``'s relief on ``obj``: the height 1 in the object's own units."""
+    """The Bump node's distance for ``job``'s relief on ``obj``: the height 1 in the object's own units
+    (:data:`cp_stylize.canvas.THICKNESS` of the strokes' width at Relief 1)."""
+    from ..canvas import THICKNESS
+
     settings = job.settings
     world_per_unit = job.result.spacing / settings.spacing          # world length of a unit of the core's frame
     scale = abs(float(np.linalg.det(np.array(obj.matrix_world)[:3, :3]))) ** (1.0 / 3.0) or 1.0
-    return settings.relief * RELIEF_THICKNESS * settings.stroke_width * world_per_unit / scale
+    return settings.relief * THICKNESS * settings.stroke_width * world_per_unit / scale
 
 
 def apply(job):
