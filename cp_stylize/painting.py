@@ -155,7 +155,7 @@ def _sheen(painted, height, texels, thickness, strength, reach=1):
         ends = []
         for step, after, before in ((1, column < size - reach, column >= reach),
                                     (size, row < size - reach, row >= reach)):
-            ends.append([_beside(position, here, reach * step * sign, inside, own)
+            ends.append([_neighbour(position, here, reach * step * sign, inside, own)
                          for sign, inside in ((1, after), (-1, before))])
         lit = _relief_light(texels.points, texels.normals[part], height, ends, thickness, LIGHT)
         shine = np.where(lit > 0, (1.0 - out[part]) * (SHEEN_LIGHT * lit), out[part] * (SHEEN_SHADE * lit))
@@ -163,7 +163,7 @@ def _sheen(painted, height, texels, thickness, strength, reach=1):
     return out
 
 
-def _beside(position, flat, step, inside, own):
+def _neighbour(position, flat, step, inside, own):
     """The index (``position``: by atlas texel) of each atlas texel ``flat`` ``step`` texels on in the atlas,
     where that lies ``inside`` the atlas and is one of the texels, else its ``own``."""
     found = np.where(inside, position[np.where(inside, flat + step, 0)], -1)
