@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_points", "check_uvs", "count", "unit_rows", "aligned", "expand_runs", "split_counts", "smooth_step"]
+__all__ = ["as_points", "check_uvs", "count", "unit_rows", "aligned", "expand_runs", "split_counts", "smooth_step", "before"]
 
 
 def as_points(x, name="points"):
@@ -78,3 +78,13 @@ def smooth_step(x):
     """Hermite's smooth step ``3 x^2 - 2 x^3`` of ``x`` clipped to [0, 1]."""
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
+
+
+def before(p, q):
+    """Whether each row of ``p`` (N, D) comes before the same row of ``q`` by its first coordinate, then
+    its second, and so on (boolean (N,)): an order of points that their positions alone decide."""
+    p, q = np.asarray(p), np.asarray(q)
+    out = np.zeros(len(p), dtype=bool)
+    for axis in range(p.shape[1] - 1, -1, -1):
+        out = (p[:, axis] < q[:, axis]) | ((p[:, axis] == q[:, axis]) & out)
+    return out

@@ -69,7 +69,7 @@ from .arrays import smooth_step
 from .oklab import to_oklab
 from .smoothing import GridGaussian, taper
 from .stroke_field import StrokeField, Swirls
-from .strokes import _spread, _surface_samples
+from .strokes import _spread
 
 __all__ = ["Hatching", "INK", "PAPER"]
 
@@ -194,7 +194,7 @@ class Hatching:
         self.sigma = KERNEL_SIGMA * self.spacing
         rng = np.random.default_rng([int(seed), 11])
         cell = KERNEL_CELL * self.spacing
-        points, faces, bary = _surface_samples(mesh, int(4 * mesh.area / cell**2) + 16, rng)
+        points, faces, bary = mesh.sample(int(4 * mesh.area / cell**2) + 16, rng)
         keep = _spread(points, cell, rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
         normals = mesh.normal(points, faces, bary)

@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import as_points, count, unit_rows
+from .arrays import as_points, before, count, unit_rows
 from .nearest import TriangleSearch
 
-__all__ = ["TriangleMesh", "parametric_mesh", "surface_faces", "check_mesh"]
+__all__ = ["TriangleMesh", "parametric_mesh", "surface_faces", "canonical_faces", "check_mesh"]
 
 
 #: A face whose height is at most this share of its longest edge is degenerate (see :func:`surface_faces`).
@@ -131,12 +131,19 @@ class TriangleMesh:
         self.input_faces = faces
         self.faces = faces[keep]
         self.face_index = np.flatnonzero(keep).astype(np.int64)
-        self.area = 0.5 * float(twice_area[keep].sum())
 
-        a, b, c = (vertices[self.faces[:, k]] for k in range(3))
+        # The search, the normals and the samples see the faces in a canonical order (their positions
+        # alone decide it), so nothing depends on how the faces were numbered or where each starts.
+        self._order, self._turn = canonical_faces(vertices, self.faces)
+        self._rank = np.empty_like(self._order)
+        self._rank[self._order] = np.arange(len(self._order))
+        self._turned = turned = self.faces[self._order[:, None], self._corners(np.arange(len(self._order)))]
+        a, b, c = (vertices[turned[:, k]] for k in range(3))
         self._search = TriangleSearch(a, b, c)
-        self.face_normals = self._search.normals
-        self.vertex_normals = self._angle_weighted_normals(a, b, c)
+        self._twice_areas = np.linalg.norm(np.cross(b - a, c - a), axis=1)     # in the canonical order
+        self.area = 0.5 * float(self._twice_areas.sum())
+        self.face_normals = self._search.normals[self._rank]
+        self.vertex_normals = self._angle_weighted_normals(turned, a, b, c)
         self._kept = None
         self._piece = None
         self._welded_faces = None
@@ -194,8 +201,9 @@ class TriangleMesh:
 
     # -- normals --------------------------------------------------------------
 
-    def _angle_weighted_normals(self, a, b, c):
-        """Vertex normals: face normals summed with the face's angle at the vertex as weight."""
+    def _angle_weighted_normals(self, faces, a, b, c):
+        """Vertex normals: face normals summed with the face's angle at the vertex as weight (``faces``
+        and their corners ``a``, ``b``, ``c`` in the search's order)."""
         corners = (a, b, c)
         normals = np.zeros_like(self.vertices)
         for k in range(3):
@@ -203,7 +211,7 @@ class TriangleMesh:
             e2 = corners[(k + 2) % 3] - corners[k]
             angle = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=1), np.einsum("ij,ij->i", e1, e2))
             for axis in range(3):
-                normals[:, axis] += np.bincount(self.faces[:, k], weights=angle * self.face_normals[:, axis],
+                normals[:, axis] += np.bincount(faces[:, k], weights=angle * self._search.normals[:, axis],
                                                 minlength=len(self.vertices))
         return unit_rows(normals)[0]
 
@@ -259,13 +267,15 @@ class TriangleMesh:
             _, _, face, bary = self.closest_point_on_faces(cp)
         kept = self._kept_faces(face, len(cp))
         if bary is None:
-            v, w = self._search.on(cp, kept)
-            bary = np.column_stack([1.0 - v - w, v, w])
+            at = self._rank[kept]
+            bary = self._input_bary(at, *self._search.on(cp, at))
         bary = np.asarray(bary, dtype=np.float64)
         if bary.shape != (len(cp), 3):
             raise ValueError(f"bary must have shape ({len(cp)}, 3), got {bary.shape}")
         fn = self.face_normals[kept]
-        n = np.einsum("ij,ijk->ik", bary, self.vertex_normals[self.faces[kept]])
+        at = self._rank[kept]                                   # summed in the search's order of corners
+        n = np.einsum("ij,ijk->ik", bary[np.arange(len(at))[:, None], self._corners(at)],
+                      self.vertex_normals[self._turned[at]])
         n, length = unit_rows(n)
         bad = (length < 1e-6) | (np.einsum("ij,ij->i", n, fn) <= 0.0)
         n[bad] = fn[bad]
@@ -302,10 +312,32 @@ class TriangleMesh:
             return np.empty((0, 3)), np.empty(0), np.empty(0, dtype=np.int64), np.empty((0, 3))
         return self._result(*self._search.nearest(x))
 
-    def _result(self, kept, v, w, d2):
-        """``(cp, dist, input face, bary)`` of the search's ``(kept face, v, w, d2)``."""
-        bary = np.column_stack([np.maximum(1.0 - v - w, 0.0), v, w])
-        return self._search.point(kept, v, w), np.sqrt(d2), self.face_index[kept], bary
+    def _input_bary(self, at, v, w):
+        """Barycentric coordinates (N, 3), by the input face's corners, of the points ``(v, w)`` of the
+        search's triangles ``at`` (N,), whose corners start at the input's corner ``self._turn[at]``."""
+        turned = np.column_stack([np.maximum(1.0 - v - w, 0.0), v, w])
+        bary = np.empty_like(turned)
+        bary[np.arange(len(at))[:, None], self._corners(at)] = turned
+        return bary
+
+    def _corners(self, at):
+        """The input corners (N, 3) of the search's triangles ``at`` (N,), in the search's order."""
+        return (self._turn[at][:, None] + np.arange(3)) % 3
+
+    def _result(self, at, v, w, d2):
+        """``(cp, dist, input face, bary)`` of the search's ``(triangle, v, w, d2)``."""
+        return (self._search.point(at, v, w), np.sqrt(d2), self.face_index[self._order[at]],
+                self._input_bary(at, v, w))
+
+    def sample(self, n, rng):
+        """``n`` random points on the mesh, uniform by area: points (n, 3), input faces (n,) and
+        barycentric coordinates (n, 3).  The same ``rng`` gives the same points however the faces are
+        numbered or where each starts."""
+        at = rng.choice(len(self._order), size=n, p=self._twice_areas / self._twice_areas.sum())
+        r = np.sqrt(rng.random(n))
+        t = rng.random(n)
+        v, w = r * (1.0 - t), r * t
+        return self._search.point(at, v, w), self.face_index[self._order[at]], self._input_bary(at, v, w)
 
     def closest_point(self, x):
         """Closest points (N, 3) on the mesh and unsigned distances (N,) of points ``x`` (N, 3)."""
@@ -332,6 +364,24 @@ class TriangleMesh:
             result = self._result(kept, v, w, d2)
             inside = result[1] <= width
             yield (ijk[inside],) + tuple(a[inside] for a in result)
+
+
+def canonical_faces(vertices, faces):
+    """A numbering of ``faces`` (K, 3) of ``vertices`` that their positions alone decide.
+
+    Returns ``order`` (K,) and ``turn`` (K,): the faces ``faces[order]``, each
+    started at its corner ``turn`` (the one whose position comes first by
+    x, then y, then z; turning keeps the orientation), come sorted by their
+    corners' positions.  Faces at the same positions keep their given order.
+    """
+    corners = vertices[faces]                                                 # (K, 3, 3)
+    rows = np.arange(len(faces))
+    turn = np.zeros(len(faces), dtype=np.int64)
+    for k in (1, 2):
+        turn[before(corners[:, k], corners[rows, turn])] = k
+    turned = corners[rows[:, None], (turn[:, None] + np.arange(3)) % 3].reshape(len(faces), 9)
+    order = np.lexsort(turned.T[::-1])
+    return order.astype(np.int64), turn[order]
 
 
 def parametric_mesh(point, n_u, n_v, *, periodic_u=False, periodic_v=False):

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .arrays import smooth_step
+from .arrays import before, smooth_step
 
 __all__ = ["SeamHealing", "seam_edges", "REACH"]
 
@@ -67,6 +67,26 @@ def seam_edges(faces, uvs, chosen=None):
     return face_a[seam], corners_a[seam], face_b[seam], corners_b[seam]
 
 
+def _canonical(vertices, faces, seams):
+    """The :func:`seam_edges` ``seams`` in an order that the surface alone decides, whatever the numbering of
+    its faces and their corners: side A of each edge is the face whose corner off the edge comes first by
+    position (:func:`cp_stylize.arrays.before`), the edge runs from its end that comes first, and the edges
+    are sorted by their ends' positions and A's corner off the edge."""
+    face_a, corners_a, face_b, corners_b = (np.array(part) for part in seams)
+
+    def off(face, corners):
+        return vertices[faces[face, 3 - corners.sum(axis=1)]]
+
+    swap = before(off(face_b, corners_b), off(face_a, corners_a))
+    face_a[swap], face_b[swap] = face_b[swap], face_a[swap]
+    corners_a[swap], corners_b[swap] = corners_b[swap], corners_a[swap]
+    ends = vertices[faces[face_a[:, None], corners_a]]                  # (E, 2, 3)
+    flip = before(ends[:, 1], ends[:, 0])
+    corners_a[flip], corners_b[flip], ends[flip] = corners_a[flip, ::-1], corners_b[flip, ::-1], ends[flip, ::-1]
+    order = np.lexsort(np.column_stack([ends.reshape(-1, 6), off(face_a, corners_a)]).T[::-1])
+    return face_a[order], corners_a[order], face_b[order], corners_b[order]
+
+
 class SeamHealing:
     """The jumps of a colour along a mesh's UV seams, and colours near them moved to meet (see the module).
 
@@ -89,7 +109,7 @@ class SeamHealing:
         self.vertices = np.asarray(vertices, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.reach = float(reach)
-        face_a, corners_a, face_b, corners_b = seams
+        face_a, corners_a, face_b, corners_b = _canonical(self.vertices, self.faces, seams)
         p0 = self.vertices[self.faces[face_a, corners_a[:, 0]]]
         p1 = self.vertices[self.faces[face_a, corners_a[:, 1]]]
         count = np.maximum(np.ceil(np.linalg.norm(p1 - p0, axis=1) / (STEP * self.reach)).astype(np.int64), 1)
@@ -108,10 +128,11 @@ class SeamHealing:
 
         self.colour_a = np.asarray(colour_at(self.face_a, bary(corners_a)), dtype=np.float64)
         self.colour_b = np.asarray(colour_at(self.face_b, bary(corners_b)), dtype=np.float64)
-        # which side a point lies on: face A's interior, across the edge from its line
-        centroid = self.vertices[self.faces[self.face_a]].mean(axis=1)
+        # which side a point lies on: face A's interior, across the edge from its line (towards its corner
+        # off the edge)
+        off = self.vertices[self.faces[face_a, 3 - corners_a.sum(axis=1)]][edge]
         along = (p1 - p0)[edge] / np.maximum(np.linalg.norm(p1 - p0, axis=1), 1e-300)[edge, None]
-        inward = centroid - self.points
+        inward = off - self.points
         self.inward = inward - np.einsum("ij,ij->i", inward, along)[:, None] * along
         self.tree = cKDTree(self.points) if len(self.points) else None
 

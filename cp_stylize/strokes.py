@@ -168,17 +168,6 @@ class Dabs:
         return self.length / self.width
 
 
-def _surface_samples(mesh, n, rng):
-    """``n`` random points on the mesh, by area: points (n, 3), input faces (n,), barycentrics (n, 3)."""
-    corners = mesh.vertices[mesh.faces]
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    kept = rng.choice(len(corners), size=n, p=area / area.sum())
-    r = np.sqrt(rng.random(n))
-    t = rng.random(n)
-    bary = np.column_stack([1.0 - r, r * (1.0 - t), r * t])
-    return np.einsum("nk,nkj->nj", bary, corners[kept]), mesh.face_index[kept], bary
-
-
 def _spread(points, cell, rng):
     """Indices of ``points`` with at most one in each cube of side ``cell``, chosen at random."""
     order = rng.permutation(len(points))
@@ -226,7 +215,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
         links = brush.chain if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
-        points, faces, bary = _surface_samples(mesh, n, rng)
+        points, faces, bary = mesh.sample(n, rng)
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
         if layer > 0:

@@ -576,11 +576,9 @@ def hatch_spacings(hatch, probes=400, seed=0, darkness=0.3, reach=4.0):
     (``darkness``, whole lines of the first layer alone), and counts the lines it crosses; each probe's spacing
     is the distance from the first line's near edge to the last's over the lines between.  Returns the
     spacings (in the hatching's lengths) of the probes that crossed at least three lines."""
-    from cp_stylize.strokes import _surface_samples
-
     mesh = hatch.mesh
     rng = np.random.default_rng(seed)
-    points, faces, barys = _surface_samples(mesh, probes, rng)
+    points, faces, barys = mesh.sample(probes, rng)
     normals = mesh.normal(points, faces, barys)
     kernels = hatch._layers[0]
     _, nearest = hatch.tree.query(points)

@@ -199,3 +199,36 @@ def test_heat_flow_on_an_open_mesh_has_a_zero_flux_border(name, coordinate):
 def test_bad_input_is_reported(make, error, message):
     with pytest.raises(error, match=message):
         make()
+
+
+def renumbered(vertices, faces, rng):
+    """The same surface numbered anew: its vertices and faces shuffled, each face started at another corner.
+    Returns the new ``(vertices, faces)``, each new face's old face (F,) and the old corner of each of its
+    corners (F, 3)."""
+    old = rng.permutation(len(faces))
+    corners = (rng.integers(0, 3, len(faces))[:, None] + np.arange(3)) % 3
+    shuffle = rng.permutation(len(vertices))
+    new = np.empty_like(shuffle)
+    new[shuffle] = np.arange(len(vertices))
+    return vertices[shuffle], new[faces[old[:, None], corners]], old, corners
+
+
+def test_closest_points_samples_and_normals_do_not_depend_on_how_the_faces_are_numbered():
+    vertices, faces, _ = parametric_mesh(Sphere().point, 24, 12, periodic_u=True)
+    first = TriangleMesh(vertices, faces)
+    second_vertices, second_faces, old, corners = renumbered(vertices, faces, np.random.default_rng(5))
+    second = TriangleMesh(second_vertices, second_faces)
+    bands = [Band.build(mesh, 0.1) for mesh in (first, second)]
+    ties = np.mean(np.any(bands[0].bary == 0.0, axis=1))
+    assert ties > 0.2                  # closest points on edges and vertices, each held by two faces or more
+    assert np.array_equal(bands[0].cp, bands[1].cp)
+    assert np.array_equal(bands[0].face, old[bands[1].face])                 # the same face at every tie
+    rows = np.arange(bands[1].size)[:, None]
+    bary = np.empty_like(bands[1].bary)
+    bary[rows, corners[bands[1].face]] = bands[1].bary                       # by the old face's corners
+    assert np.array_equal(bands[0].bary, bary)
+    normals = [mesh.normal(band.cp.astype(np.float64), band.face, band.bary) for mesh, band in zip((first, second),
+                                                                                                  bands)]
+    assert np.array_equal(*normals)
+    samples = [mesh.sample(500, np.random.default_rng(2)) for mesh in (first, second)]
+    assert np.array_equal(samples[0][0], samples[1][0]) and np.array_equal(samples[0][1], old[samples[1][1]])
