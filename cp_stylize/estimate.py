@@ -69,6 +69,11 @@ SECONDS_TOON_PER_TEXEL = 1.5e-6
 SECONDS_WASH_PER_TEXEL = 5e-6
 BYTES_WASH_PER_TEXEL = 330
 
+#: Hand-painted edges (:func:`cp_stylize.shading.edge_strength`: the normals smoothed, the curvature of the band):
+#: seconds and bytes a band point.
+SECONDS_EDGES_PER_POINT = 9e-6
+BYTES_EDGES_PER_POINT = 250
+
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
 BYTES_PER_BAND_POINT = 1650
@@ -113,6 +118,9 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     if settings.oil_size > 0:
         seconds += n_points * SECONDS_OIL_PER_POINT + BAKED_SHARE * texels * SECONDS_OIL_PER_TEXEL
         nbytes += n_points * BYTES_OIL_PER_POINT + BAKED_SHARE * texels * BYTES_OIL_PER_TEXEL
+    if settings.shade_edges > 0:
+        seconds += n_points * SECONDS_EDGES_PER_POINT
+        nbytes += n_points * BYTES_EDGES_PER_POINT
     if settings.toon_levels:
         seconds += texels * SECONDS_TOON_PER_TEXEL
     if settings.wash_levels:

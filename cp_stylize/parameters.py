@@ -241,6 +241,18 @@ RUN = {p.name: p for p in (
                                 "from the object's upper left front (it turns with the object), so the strokes' "
                                 "body reads in a flat view, an unlit material or a game engine (0: none)",
               0.0, 1.0, 0.0, file=("strokes", "sheen")),
+    Parameter("shade_light", "Form Light", "Hand-painted shading: how much a light from above the object (a "
+                                           "little to its left and front; it turns with the object) is painted "
+                                           "into the colour, the side facing it lighter and the side turned away "
+                                           "darker, so the form reads without a lamp (0: none)", 0.0, 1.0, 0.0,
+              precision=2, file=("shading", "light")),
+    Parameter("shade_edges", "Edges", "Hand-painted shading: how much the surface's own convex edges are "
+                                      "lightened and its creases darkened, from its curvature (0: none)",
+              0.0, 1.0, 0.0, precision=2, file=("shading", "edges")),
+    Parameter("shade_warmth", "Warm and Cool", "Hand-painted shading: how much the hue moves with the painted "
+                                               "light, lights towards a warm yellow and shadows towards a cool "
+                                               "blue (0: lighter and darker only)", 0.0, 1.0, 0.0,
+              precision=2, file=("shading", "warmth")),
 )}
 
 #: Seeds of the random noise: whole numbers a 32-bit integer holds, as Blender's integer properties do.

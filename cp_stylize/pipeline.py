@@ -46,6 +46,7 @@ from .noise import inject_noise
 from .oklab import to_oklab
 from .painting import painting
 from .palette import map_to_palette, palette_noise
+from .shading import EDGE_DEPTH, LIGHT_DEPTH, FormShading, shaded
 from .seams import SeamHealing, seam_edges
 from .parameters import AXIS_DIRECTIONS, DIRECTED_MODES
 from .stroke_field import form_field, level_field, sample_directions
@@ -241,6 +242,11 @@ def input_colours(colours, settings, channels=3):
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)
         found.append(np.zeros((1, channels), np.float32) if ink is None else _in_channels([ink], channels))
+    if settings.shade_light > 0 or settings.shade_edges > 0:    # the painted light and shade: lighter and darker
+        deepest = settings.shade_light * LIGHT_DEPTH + settings.shade_edges * EDGE_DEPTH
+        given = np.concatenate(found)
+        found += [shaded(given, np.full(len(given), shift), settings.shade_warmth).astype(np.float32)
+                  for shift in (-deepest, -deepest / 2, deepest / 2, deepest)]
     covered = colours.corner_colours is not None or (
         bool(colours.textures) and np.all(np.any([np.asarray(t.faces, bool) for t in colours.texture_list], axis=0)))
     clipped = any("clip" in t.wrap for t in colours.texture_list)
@@ -429,6 +435,10 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                                             colours=colours, source=picture_at))
         report(0.9)
         clock.lap("painting")
+    if settings.shade_light > 0 or settings.shade_edges > 0:     # the form's light and edges over all the paint
+        paint = layered(paint, FormShading(band, light=settings.shade_light, edges=settings.shade_edges,
+                                           warmth=settings.shade_warmth))
+        clock.lap("shading")
     image, height = _bake_out(mesh, band, result, atlas, settings, cache, (colours, sampled, painted), paint, report)
     clock.lap("bake_out")
     report(1.0)

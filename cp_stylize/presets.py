@@ -125,6 +125,7 @@ _FILE = {
     "watercolour": _run_keys("watercolour"),
     "lines": _run_keys("lines"),
     "hatching": _run_keys("hatching"),
+    "shading": _run_keys("shading"),
     "output": {"size": "image_size", "margin": "margin"},
 }
 
@@ -441,10 +442,10 @@ def preset_text(settings):
               *run("noise"), "palette = ["]
     weights = settings.palette_weights or (1.0,) * len(settings.palette)
     lines += [f"  [{_colour_value(c)}, {_toml_value(float(w))}]," for c, w in zip(settings.palette, weights)]
-    lines += ["]", "", "[strokes]", *run("strokes")]
-    lines += ["", "[oil]", *run("oil"), "", "[toon]", *run("toon"), "", "[watercolour]", *run("watercolour"),
-              "", "[lines]", *run("lines"),
-              "", "[hatching]", *run("hatching")]
+    lines.append("]")
+    for table in _FILE:                                 # the tables of the run's numbers alone
+        if table not in (None, "noise", "output"):
+            lines += ["", f"[{table}]", *run(table)]
     lines += ["", "[output]", f"size = {int(settings.image_size)}", f"margin = {int(settings.margin)}", ""]
     return "\n".join(lines)
 

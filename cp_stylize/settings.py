@@ -205,6 +205,9 @@ class StylizeSettings:
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
     relief: float = RUN["relief"].default          # the strokes' height, as a second image
     sheen: float = RUN["sheen"].default            # the relief's light and shade in the colour
+    shade_light: float = RUN["shade_light"].default    # hand-painted shading (cp_stylize.shading): form light,
+    shade_edges: float = RUN["shade_edges"].default    # convex edges and creases,
+    shade_warmth: float = RUN["shade_warmth"].default  # and the hue's warm and cool shift with them
     oil_size: float = RUN["oil_size"].default      # oil paint: the Kuwahara filter's radius (cp_stylize.kuwahara)
     oil_sharpness: float = RUN["oil_sharpness"].default
     oil_eccentricity: float = RUN["oil_eccentricity"].default

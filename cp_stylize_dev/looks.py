@@ -326,11 +326,12 @@ def _denoisers(sphere, near_zero, size, out_dir, log):
 
 
 def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=True, hatching=True, watercolour=True,
-        log=print):
+        hand_painted=True, log=print):
     """The painterly presets' measures on the three subjects (see :func:`subjects`), with ``oil`` the Oil
     Paint preset's against Blender's Kuwahara node, with ``toon`` the Toon preset's (:func:`_toon`), with
     ``hatching`` the Ink Hatching preset's (:func:`_hatching`) and with ``watercolour`` the Watercolour
-    preset's (:func:`_watercolour`); returns them as a dict.
+    preset's (:func:`_watercolour`) and with ``hand_painted`` the Hand-Painted preset's (:func:`_hand_painted`);
+    returns them as a dict.
 
     Each preset runs as shipped at its own grid (Standard) into 1024 x 1024 atlases on the
     subjects' own UVs, and again with Fidelity 0.5 for the hue measure; the images go to
@@ -387,7 +388,53 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=Tru
         if watercolour:
             figures[f"{subject_name}_watercolour"] = _watercolour(subject_name, subject, source, mask, texel, size,
                                                                   out_dir, log)
+        if hand_painted:
+            figures[f"{subject_name}_hand_painted"] = _hand_painted(subject_name, subject, source, mask, texel, size,
+                                                                    out_dir, log)
     return figures
+
+
+def _hand_painted(subject_name, subject, source, mask, texel, size, out_dir, log):
+    """The Hand-Painted preset on a subject, given the run that changes nothing (``source``), the texels
+    measured and their length: the edge measure at half its oil paint's size, and what its painted light
+    adds over the same run without it, at the texels, against the form light's facing ``n . l`` (the
+    interpolated normal there): the correlation of the lightness added with it (none on a flat frame,
+    which faces one way), and the lightness (OKLab L) and warmth (OKLab b) the texels facing the light
+    (``n . l`` above 0.5) gain over those turned away (below -0.5)."""
+    import os
+
+    from cp_stylize.mesh import TriangleMesh
+    from cp_stylize.oklab import to_oklab
+    from cp_stylize.pipeline import normalisation
+    from cp_stylize.presets import load_preset
+    from cp_stylize.shading import LIGHT
+    from cp_stylize.texture import write_png
+
+    hand = load_preset("hand_painted")
+    ours = _run(subject, hand, size)
+    write_png(os.path.join(out_dir, f"{subject_name}_hand_painted.png"), ours.image)
+    plain = _run(subject, hand.replace(shade_light=0.0, shade_edges=0.0), size)
+    vertices, faces = subject[0], subject[1]
+    centre, scale = normalisation(vertices, faces)
+    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+    atlas = ours.atlas
+    points = np.einsum("mk,mkd->md", atlas.bary, mesh.vertices[mesh.input_faces[atlas.face]])
+    facing = mesh.normal(points, atlas.face, atlas.bary) @ LIGHT
+    kept = mask.reshape(-1)[atlas.texels]
+    added = (to_oklab(ours.image.reshape(-1, 3)[atlas.texels]) - to_oklab(plain.image.reshape(-1, 3)[atlas.texels]))
+    added, facing = added[kept], facing[kept]
+    lit, away = facing > 0.5, facing < -0.5
+    row = {"edges": edge_survival(ours.image, source.image, 0.5 * hand.oil_size / texel, mask),
+           "light_correlation": float(np.corrcoef(added[:, 0], facing)[0, 1]) if np.ptp(facing) > 0.1 else None,
+           "lit_minus_away": [float(added[lit, k].mean() - added[away, k].mean()) if lit.any() and away.any()
+                              else None for k in (0, 2)],
+           "seconds": ours.seconds}
+    correlation = "n/a" if row["light_correlation"] is None else f"{row['light_correlation']:.2f}"
+    gain = ("n/a" if row["lit_minus_away"][0] is None
+            else f"L {row['lit_minus_away'][0]:+.3f}, b {row['lit_minus_away'][1]:+.3f}")
+    log(f"{subject_name:8s} hand_painted    edges {row['edges']:.2f}, light added against n.l: correlation "
+        f"{correlation}, facing the light over turned away {gain}, {ours.seconds:.0f} s")
+    return row
 
 
 def lightness_levels(image, mask, levels, reach=0.02, iterations=30):

@@ -94,6 +94,10 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     lit, flat = (estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048, sheen=sheen)) for sheen in (0.8, 0.0))
     assert lit[0] > flat[0] + 1.0 and lit[1] == flat[1] + 4 * 2048**2
     assert estimate_run(100_000, ced.replace(sheen=0.8)) == estimate_run(100_000, ced.replace(sheen=0.0))
+    # hand-painted edges cost by the band point (the surface's curvature), its light next to nothing
+    edged = estimate_run(100_000, ced.replace(shade_edges=1.0))
+    assert edged[0] > s1 + 0.5 and edged[1] > b1 + 100_000 * 200
+    assert estimate_run(100_000, ced.replace(shade_light=1.0)) == (s1, b1)
     # oil paint costs by the band point (the sectors' statistics) and by the texel (reading them)
     oil = estimate_run(100_000, ced.replace(oil_size=0.03))
     assert oil[0] > s1 + 1.0 and oil[1] > b1 + 100_000 * 100

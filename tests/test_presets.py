@@ -7,7 +7,7 @@ from cp_stylize.presets import StylizeSettings, builtin_presets, load_preset, pa
 from cp_stylize.strokes import LENGTH_SPREAD
 
 REQUIRED = {"starry_night", "sunflower_vase", "van_gogh_form", "denoise_eed", "perona_malik", "gaussian_blur",
-            "hatching", "woodcut", "watercolour"}
+            "hatching", "woodcut", "watercolour", "hand_painted"}
 PAINTERLY = ("starry_night", "van_gogh_form", "sunflower_vase")
 
 
@@ -90,7 +90,7 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\nshape = 3', "unknown key(s) ['shape']; known: ['name', 'description', 'mode', 'T', 'spacing', "
                                 "'detail', 'contours', 'direction', 'axis', 'attribute', 'params', 'noise', 'strokes', "
                                 "'oil', 'toon', 'watercolour', 'lines', 'hatching', "
-                                "'output']"),
+                                "'shading', 'output']"),
     ('mode = "ced"\n[params]\ngamma = 1.0', "unknown parameter(s) ['gamma'] in [params]; known: ['sigma', 'rho', "
                                             "'alpha', 'b_rel', 'beta', 'contrast', 'ink', 'lambda_rel']"),
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [["#12345", 1]]',

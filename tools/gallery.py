@@ -99,9 +99,22 @@ def frame(kind, obj, raking=False):
         key.data.energy = 4.0
 
 
-def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", log=print):
+def unlit(obj):
+    """Show the object's textures as they are, lit by nothing, as an unlit game shader shows them: each
+    material's surface becomes an emission of what feeds its Principled BSDF's Base Color (the scene's
+    view transform is Standard, so the render shows its colours as they are)."""
+    for slot in obj.material_slots:
+        tree = slot.material.node_tree
+        output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output)
+        bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(bsdf.inputs["Base Color"].links[0].from_socket, emission.inputs["Color"])
+        tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+
+
+def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", shown_unlit=False, log=print):
     """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds.
-    ``preset`` None renders the photograph itself."""
+    ``preset`` None renders the photograph itself; ``shown_unlit``: as an unlit shader shows it (:func:`unlit`)."""
     obj, size = build(kind)
     scene.setup_render(size, samples)
     frame(kind, obj, raking)
@@ -109,6 +122,8 @@ def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", 
     if preset is not None:
         scene.stylize(obj, preset, quality, IMAGE_SIZE)
     seconds = time.perf_counter() - start
+    if shown_unlit:
+        unlit(obj)
     settings = bpy.context.scene.render.image_settings
     settings.file_format, settings.quality = "JPEG", 92
     scene.render(path)
@@ -139,10 +154,17 @@ def crop(path, kind):
     return save_jpeg(path.replace(".jpg", "_crop.jpg"), pixels[r:r + CROP, c:c + CROP])
 
 
-def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", relief=True, log=print):
+def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", relief=True, unlit_too=False, log=print):
     os.makedirs(out_dir, exist_ok=True)
     for kind in subjects:            # the photographs themselves, to compare against
         render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log)
+    if unlit_too:                    # and each render again as an unlit shader shows it
+        for kind in subjects:
+            render(kind, None, os.path.join(out_dir, f"{kind}_photo_unlit.jpg"), shown_unlit=True, log=log)
+            for preset in presets:
+                path = os.path.join(out_dir, f"{kind}_{preset}_unlit.jpg")
+                render(kind, preset, path, quality=quality, shown_unlit=True, log=log)
+                crop(path, kind)
     rows = []
     for preset in presets:
         cells = []
@@ -182,9 +204,11 @@ def main(argv=None):
     parser.add_argument("--quality", default="STANDARD", choices=["PREVIEW", "STANDARD", "HIGH", "PRESET"],
                         help="the grid (default: STANDARD); PRESET: each preset's own")
     parser.add_argument("--no-relief", action="store_true", help="leave out the render under a raking light")
+    parser.add_argument("--unlit", action="store_true",
+                        help="render each also as an unlit shader shows it (<subject>_<preset>_unlit.jpg)")
     args = parser.parse_args(argv)
     run(args.out, presets=args.presets, subjects=args.subjects,
-        quality=None if args.quality == "PRESET" else args.quality, relief=not args.no_relief)
+        quality=None if args.quality == "PRESET" else args.quality, relief=not args.no_relief, unlit_too=args.unlit)
 
 
 if __name__ == "__main__":

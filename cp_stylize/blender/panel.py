@@ -247,6 +247,19 @@ class VIEW3D_PT_cp_stylize_hatching(_Closed, bpy.types.Panel):
         _switched(layout, context.scene.cp_stylize, "line_width", ["line_detail"], text="Outlines")
 
 
+class VIEW3D_PT_cp_stylize_shading(_Closed, bpy.types.Panel):
+    bl_label = "Hand-Painted Light"
+
+    def draw(self, context):
+        settings = context.scene.cp_stylize
+        layout = _split(self.layout)
+        _prop(layout, settings, "shade_light")
+        _prop(layout, settings, "shade_edges")
+        col = layout.column()
+        col.active = settings.shade_light > 0 or settings.shade_edges > 0
+        _prop(col, settings, "shade_warmth")
+
+
 class VIEW3D_PT_cp_stylize_palette(_Closed, bpy.types.Panel):
     bl_label = "Palette"
 
@@ -310,5 +323,5 @@ class VIEW3D_PT_cp_stylize_advanced(_Closed, bpy.types.Panel):
 
 classes = (VIEW3D_PT_cp_stylize_presets, VIEW3D_PT_cp_stylize, VIEW3D_PT_cp_stylize_paint, VIEW3D_PT_cp_stylize_oil,
            VIEW3D_PT_cp_stylize_toon, VIEW3D_PT_cp_stylize_watercolour, VIEW3D_PT_cp_stylize_hatching,
-           VIEW3D_PT_cp_stylize_palette,
+           VIEW3D_PT_cp_stylize_shading, VIEW3D_PT_cp_stylize_palette,
            VIEW3D_PT_cp_stylize_output, VIEW3D_PT_cp_stylize_advanced)

@@ -160,8 +160,8 @@ def scenario_panel():
     panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
     # open the Oil Paint, Toon and Palette sub-panels, which start closed; the order stays
     after = [panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_watercolour,
-             panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette,
-             panels.VIEW3D_PT_cp_stylize_output]
+             panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_shading,
+             panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
     for cls in reversed(after):
         bpy.utils.unregister_class(cls)
     for cls in after:
@@ -220,9 +220,16 @@ def scenario_panel():
     screenshot("panel_hatching", sidebar)
     facts["hatching"] = {"hatch_spacing": settings.hatch_spacing, "hatch_layers": settings.hatch_layers,
                          "line_width": settings.line_width}
-    # the Output sub-panel, with the Ink Hatching and Palette sub-panels out of the way too: its limits' labels
-    # whole at the sidebar's width
-    for cls in (panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette):
+    # the Hand-Painted preset, with the Ink Hatching sub-panel out of the way too: its light, edges and warmth
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="hand_painted")
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_hatching)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_hand_painted", sidebar)
+    facts["hand_painted"] = {name: getattr(settings, name) for name in ("shade_light", "shade_edges", "shade_warmth")}
+    # the Output sub-panel, with the Hand-Painted Light and Palette sub-panels out of the way too: its limits'
+    # labels whole at the sidebar's width
+    for cls in (panels.VIEW3D_PT_cp_stylize_shading, panels.VIEW3D_PT_cp_stylize_palette):
         bpy.utils.unregister_class(cls)
     area.tag_redraw()
     yield 1.5
@@ -230,8 +237,8 @@ def scenario_panel():
     facts["output_labels"] = [settings.bl_rna.properties[name].name for name in ("memory_limit", "time_limit")]
     bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_output)      # back in their order
     aside += [panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_watercolour,
-              panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_palette,
-              panels.VIEW3D_PT_cp_stylize_output]
+              panels.VIEW3D_PT_cp_stylize_hatching, panels.VIEW3D_PT_cp_stylize_shading,
+              panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
     for cls in aside:
         bpy.utils.register_class(cls)
     # the preset menu, a picture of each preset over its name
@@ -247,7 +254,8 @@ def scenario_panel():
     in_view3d(bpy.ops.cp_stylize.preset_load, name="denoise_eed")
     aside = [panels.VIEW3D_PT_cp_stylize_paint, panels.VIEW3D_PT_cp_stylize_oil, panels.VIEW3D_PT_cp_stylize_toon,
              panels.VIEW3D_PT_cp_stylize_watercolour, panels.VIEW3D_PT_cp_stylize_hatching,
-             panels.VIEW3D_PT_cp_stylize_palette, panels.VIEW3D_PT_cp_stylize_output]
+             panels.VIEW3D_PT_cp_stylize_shading, panels.VIEW3D_PT_cp_stylize_palette,
+             panels.VIEW3D_PT_cp_stylize_output]
     for cls in aside:
         bpy.utils.unregister_class(cls)
     # the sub-panel stays closed once drawn closed: the same panel under a name of its own starts open

@@ -96,6 +96,11 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert os.path.getsize(facts["screenshots"]["panel_hatching_crop"]) > 10_000
     assert facts["hatching"] == {"hatch_spacing": pytest.approx(0.016), "hatch_layers": 3,
                                  "line_width": pytest.approx(0.004)}
+    assert os.path.getsize(facts["screenshots"]["panel_hand_painted_crop"]) > 10_000
+    hand = load_preset("hand_painted")
+    assert facts["hand_painted"] == {"shade_light": pytest.approx(hand.shade_light),
+                                     "shade_edges": pytest.approx(hand.shade_edges),
+                                     "shade_warmth": pytest.approx(hand.shade_warmth)}
     # the Output sub-panel drawn with its limits, each label short enough for the sidebar's default width
     assert facts["output_labels"] == ["Max RAM (GiB)", "Max Time (min)"]
     assert os.path.getsize(facts["screenshots"]["panel_output_crop"]) > 10_000
