@@ -137,7 +137,7 @@ class TriangleMesh:
         self._order, self._turn = canonical_faces(vertices, self.faces)
         self._rank = np.empty_like(self._order)
         self._rank[self._order] = np.arange(len(self._order))
-        self._turned = turned = self.faces[self._order[:, None], self._corners(np.arange(len(self._order)))]
+        self._turned = turned = self.faces[self._order[:, None], _turned_corners(self._turn)]
         a, b, c = (vertices[turned[:, k]] for k in range(3))
         self._search = TriangleSearch(a, b, c)
         self._twice_areas = np.linalg.norm(np.cross(b - a, c - a), axis=1)     # in the canonical order
@@ -266,14 +266,14 @@ class TriangleMesh:
         if face is None:
             _, _, face, bary = self.closest_point_on_faces(cp)
         kept = self._kept_faces(face, len(cp))
+        at = self._rank[kept]                                   # the search's triangles
         if bary is None:
-            at = self._rank[kept]
             bary = self._input_bary(at, *self._search.on(cp, at))
         bary = np.asarray(bary, dtype=np.float64)
         if bary.shape != (len(cp), 3):
             raise ValueError(f"bary must have shape ({len(cp)}, 3), got {bary.shape}")
         fn = self.face_normals[kept]
-        at = self._rank[kept]                                   # summed in the search's order of corners
+        # summed in the search's order of corners
         n = np.einsum("ij,ijk->ik", bary[np.arange(len(at))[:, None], self._corners(at)],
                       self.vertex_normals[self._turned[at]])
         n, length = unit_rows(n)
@@ -322,7 +322,7 @@ class TriangleMesh:
 
     def _corners(self, at):
         """The input corners (N, 3) of the search's triangles ``at`` (N,), in the search's order."""
-        return (self._turn[at][:, None] + np.arange(3)) % 3
+        return _turned_corners(self._turn[at])
 
     def _result(self, at, v, w, d2):
         """``(cp, dist, input face, bary)`` of the search's ``(triangle, v, w, d2)``."""
@@ -379,9 +379,14 @@ def canonical_faces(vertices, faces):
     turn = np.zeros(len(faces), dtype=np.int64)
     for k in (1, 2):
         turn[before(corners[:, k], corners[rows, turn])] = k
-    turned = corners[rows[:, None], (turn[:, None] + np.arange(3)) % 3].reshape(len(faces), 9)
+    turned = corners[rows[:, None], _turned_corners(turn)].reshape(len(faces), 9)
     order = np.lexsort(turned.T[::-1])
     return order.astype(np.int64), turn[order]
+
+
+def _turned_corners(turn):
+    """The corners (N, 3) of faces started at their corners ``turn`` (N,), in order: ``turn``, then on."""
+    return (np.asarray(turn)[:, None] + np.arange(3)) % 3
 
 
 def parametric_mesh(point, n_u, n_v, *, periodic_u=False, periodic_v=False):

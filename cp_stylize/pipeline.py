@@ -242,7 +242,7 @@ def input_colours(colours, settings, channels=3):
     if settings.contours > 0:                                    # the lines' ink: the palette's darkest, darker
         ink = ink_colour(settings.palette)
         found.append(np.zeros((1, channels), np.float32) if ink is None else _in_channels([ink], channels))
-    if settings.shade_light > 0 or settings.shade_edges > 0:    # the painted light and shade: lighter and darker
+    if settings.shading_on:                                      # the painted light and shade: lighter and darker
         deepest = settings.shade_light * LIGHT_DEPTH + settings.shade_edges * EDGE_DEPTH
         given = np.concatenate(found)
         found += [shaded(given, np.full(len(given), shift), settings.shade_warmth).astype(np.float32)
@@ -435,7 +435,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
                                             colours=colours, source=picture_at))
         report(0.9)
         clock.lap("painting")
-    if settings.shade_light > 0 or settings.shade_edges > 0:     # the form's light and edges over all the paint
+    if settings.shading_on:                                      # the form's light and edges over all the paint
         paint = layered(paint, FormShading(band, light=settings.shade_light, edges=settings.shade_edges,
                                            warmth=settings.shade_warmth))
         clock.lap("shading")

@@ -276,6 +276,11 @@ class StylizeSettings:
                              f"{[d for d in DIRECTIONS if d != 'texture']}, not 'texture'")
 
     @property
+    def shading_on(self):
+        """Whether the run paints the form's light or edges into the colour (:mod:`cp_stylize.shading`)."""
+        return self.shade_light > 0 or self.shade_edges > 0
+
+    @property
     def noise_on(self):
         """Whether the run paints with the palette: random noise on some points, or tones mapped on all
         (either needs a palette, which the checks ask for)."""

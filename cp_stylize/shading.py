@@ -16,11 +16,13 @@ Both come from the surface itself, at the band's closest points:
   the whole (a plane, which faces one way, keeps its colour; a sphere's
   terminator keeps its own);
 - the **edges** from the mean curvature ``H = (k1 + k2) / 2``
-  (:func:`cp_stylize.curvature.principal_curvatures`, outward normals), smoothed
-  over :data:`EDGE_WIDTH` (a heat flow of that time squared) and taken from the surface's median, so a sphere or a
-  plane has no edges and a ridge (``H`` above it) is lit, a crease (below) shaded.
-  ``H`` saturates at :data:`EDGE_CURVATURE`: a rounding of a twentieth of the
-  object's radius is a full edge.
+  (:func:`cp_stylize.curvature.principal_curvatures`) of the outward normals
+  smoothed on the surface over :data:`EDGE_WIDTH` (a heat flow of that width
+  squared; a mesh's face normals, so a sharp edge counts as a bevel of that
+  width), taken from the surface's median, so a sphere or a plane has no
+  edges and a ridge (``H`` above it) is lit, a crease (below) shaded.  ``H``
+  saturates :data:`EDGE_CURVATURE` above the median: a rounded edge of radius
+  1/24 of the object's radius (``H = 1 / (2 r)``) is a full edge.
 
 Each moves OKLab lightness; the warmth moves hue and chroma with it, towards
 :data:`WARM` in the lights and :data:`COOL` in the shadows.  Colours stay in

@@ -249,32 +249,35 @@ def _run(subject, settings, size):
     return stylize(vertices, faces, colours, settings.replace(image_size=size), uvs=uvs)
 
 
-def _texel(subject, result):
-    """The median texel length of a run's atlas on the subject, in the units its settings use."""
-    from cp_stylize.baking import texel_lengths
+def _normalised_mesh(subject):
+    """The subject's mesh as a run sees it: normalised to a diameter of 2 (a :class:`TriangleMesh`)."""
     from cp_stylize.mesh import TriangleMesh
     from cp_stylize.pipeline import normalisation
 
     vertices, faces = subject[0], subject[1]
     centre, scale = normalisation(vertices, faces)
-    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
-    return float(np.median(texel_lengths(mesh, result.atlas, result.atlas.face)))
+    return TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+
+
+def _texel(subject, result):
+    """The median texel length of a run's atlas on the subject, in the units its settings use."""
+    from cp_stylize.baking import texel_lengths
+
+    return float(np.median(texel_lengths(_normalised_mesh(subject), result.atlas, result.atlas.face)))
 
 
 def _dabs(subject, settings, result):
     """The run's dabs and the atlas's texels, made again as the run made them (for :func:`dab_aspects`)."""
     from cp_stylize import Band
     from cp_stylize.baking import atlas_points, texel_lengths
-    from cp_stylize.mesh import TriangleMesh
     from cp_stylize.palette import map_to_palette
-    from cp_stylize.pipeline import ColourInput, Texture, normalisation, stencil_for
+    from cp_stylize.pipeline import ColourInput, Texture, stencil_for
     from cp_stylize.sampling import sample_colours
     from cp_stylize.canvas import Texels
     from cp_stylize.strokes import Brush, place_dabs
 
     vertices, faces, uvs, image, wrap = subject
-    centre, scale = normalisation(vertices, faces)
-    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+    mesh = _normalised_mesh(subject)
     band = Band.build(mesh, settings.spacing, stencil=stencil_for(settings.mode))
     sampled = sample_colours(band, ColourInput(textures=[Texture(image, uvs, np.ones(len(faces), bool), wrap)]))
     values = map_to_palette(sampled, settings.palette, settings.palette_weights or None, fidelity=settings.fidelity)
@@ -403,9 +406,7 @@ def _hand_painted(subject_name, subject, source, mask, texel, size, out_dir, log
     (``n . l`` above 0.5) gain over those turned away (below -0.5)."""
     import os
 
-    from cp_stylize.mesh import TriangleMesh
     from cp_stylize.oklab import to_oklab
-    from cp_stylize.pipeline import normalisation
     from cp_stylize.presets import load_preset
     from cp_stylize.shading import LIGHT
     from cp_stylize.texture import write_png
@@ -414,9 +415,7 @@ def _hand_painted(subject_name, subject, source, mask, texel, size, out_dir, log
     ours = _run(subject, hand, size)
     write_png(os.path.join(out_dir, f"{subject_name}_hand_painted.png"), ours.image)
     plain = _run(subject, hand.replace(shade_light=0.0, shade_edges=0.0), size)
-    vertices, faces = subject[0], subject[1]
-    centre, scale = normalisation(vertices, faces)
-    mesh = TriangleMesh((np.asarray(vertices) - centre) * scale, faces)
+    mesh = _normalised_mesh(subject)
     atlas = ours.atlas
     points = np.einsum("mk,mkd->md", atlas.bary, mesh.vertices[mesh.input_faces[atlas.face]])
     facing = mesh.normal(points, atlas.face, atlas.bary) @ LIGHT
