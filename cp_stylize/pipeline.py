@@ -479,11 +479,11 @@ def _band(mesh, settings, cache, keep):
 
 def _bake_in(mesh, band, colours, settings, cache, painted):
     """The input colours at the band's closest points (N, C), kept in ``cache`` under the key ``painted``,
-    and ``picture_at(face, bary)``: the picture's colours at points of the mesh; where strokes paint, the
-    texture's UV seams healed (strokes cross them)."""
+    and ``picture_at(face, bary)``: the picture's colours at points of the mesh; where the run paints a look
+    (:attr:`~cp_stylize.settings.StylizeSettings.stylised`), the texture's UV seams healed."""
     sampled = cache.get("sampled", painted, lambda: read_only(sample_colours(band, colours)))
     heal = None
-    if settings.strokes > 0:
+    if settings.stylised:
         heal = cache.get("seams", (cache.owner, painted[3]), lambda: seam_healing(mesh, colours))
         if heal is not None:
             sampled = cache.get("healed", painted, lambda: read_only(heal(band.face, band.bary, sampled)))

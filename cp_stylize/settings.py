@@ -281,6 +281,16 @@ class StylizeSettings:
         return self.shade_light > 0 or self.shade_edges > 0
 
     @property
+    def stylised(self):
+        """Whether the run paints a look over the picture (the palette, strokes, contours, oil paint, toon,
+        watercolour, hatching, ink lines or the painted light) rather than only filtering it.  A look's run
+        heals the texture's UV seams first (:mod:`cp_stylize.seams`): the look would trace the seam's
+        colour jump as an edge of the picture.  A filter keeps the texture as it is, seams and all."""
+        return (self.noise_on or self.strokes > 0 or self.contours > 0 or self.oil_size > 0
+                or bool(self.toon_levels) or bool(self.wash_levels) or self.hatch_spacing > 0
+                or self.line_width > 0 or self.shading_on)
+
+    @property
     def noise_on(self):
         """Whether the run paints with the palette: random noise on some points, or tones mapped on all
         (either needs a palette, which the checks ask for)."""

@@ -40,8 +40,8 @@ def test_a_re_run_with_new_filter_parameters_matches_a_fresh_run(scene, preset):
     again = _run(scene, _settings(preset), cache)
     detail_parts = {"extended", "texel_colours"}     # the input's detail, read where it is laid back without strokes
     laid_back = _settings(preset).detail > 0 and _settings(preset).strokes == 0
-    healed = {"seams", "healed"}                      # the texture's UV seams, healed where strokes paint
-    painted = _settings(preset).strokes > 0
+    healed = {"seams", "healed"}                      # the texture's UV seams, healed where a look paints
+    painted = _settings(preset).stylised
     assert cache.reused == [p for p in ALL_PARTS
                             if (laid_back or p not in detail_parts) and (painted or p not in healed)]
     np.testing.assert_array_equal(again.image, first.image)

@@ -76,3 +76,36 @@ def test_a_texture_that_matches_across_its_seam_is_not_changed():
     bary = rng.dirichlet(np.ones(3), len(face))
     before = colours_at(face, bary, colours)
     np.testing.assert_array_equal(heal(face, bary, before), before)
+
+
+
+def test_a_look_heals_the_textures_jump_at_its_uv_seam_and_a_filter_keeps_it():
+    """A torus's texture that jumps where its UV map is cut (a ramp in u, dark at u = 0 and light at u = 1,
+    read clamped): a filter keeps the texture as it is, seam and all; Oil Paint paints over the seam healed,
+    so the jump is spread over the healing's reach instead of standing as an edge of the picture."""
+    from cp_stylize import Torus
+    from cp_stylize.mesh import parametric_mesh
+    from cp_stylize.pipeline import stylize
+    from cp_stylize.presets import StylizeSettings, load_preset
+    from cp_stylize_dev.looks import seam_step
+
+    size = 256
+    vertices, faces, uvs = parametric_mesh(Torus(1.0, 0.45).point, 64, 32, periodic_u=True, periodic_v=True)
+    u = (np.arange(size) + 0.5) / size
+    picture = np.ones((size, size, 3), np.float32) * ((0.3 + 0.4 * u)[None, :, None] * np.array([1.0, 0.8, 0.6]))
+    colours = ColourInput(textures=[Texture(picture, uvs, np.ones(len(faces), bool), ("clamp", "clamp"))])
+    steps = {}
+    for name, settings in (("filter", StylizeSettings(mode="eed", T=1e-6)), ("oil_paint", load_preset("oil_paint"))):
+        result = stylize(vertices, faces, colours, settings.replace(spacing=0.03, image_size=size), uvs=uvs)
+        mask = result.atlas.coverage.reshape(size, size)
+        steps[name] = seam_step(result.image, np.flatnonzero(mask[:, 0] & mask[:, -1]))[0]
+    print("\nthe colour's step across the seam:", {k: round(v, 3) for k, v in steps.items()})
+    assert steps["filter"] >= 0.28                                # the picture's own jump, 0.32
+    assert steps["oil_paint"] <= 0.3 * steps["filter"]            # unhealed, the band's blur alone leaves 0.39 of it
+
+
+def test_every_look_heals_the_seams_and_no_filter_does():
+    from cp_stylize.presets import builtin_presets, load_preset
+
+    looks = {name for name in builtin_presets() if load_preset(name).stylised}
+    assert looks == set(builtin_presets()) - {"denoise_eed", "gaussian_blur", "perona_malik"}
