@@ -128,7 +128,8 @@ RUN = {p.name: p for p in (
               precision=0, step=100,
               file=("strokes", "layers")),
     Parameter("stroke_chain", "Chain", "Dabs the first layer lays end to end along the picture as one stroke, "
-                                       "while the picture's colour under it stays alike (1: single dabs)", 1, 8, 3,
+                                       "while the picture's colour under it stays alike; the second layer takes "
+                                       "half as many, the third a third (1: single dabs)", 1, 8, 3,
               "count", precision=0, step=100,
               file=("strokes", "chain")),
     Parameter("stroke_jitter", "Jitter", "How far each stroke's colour moves towards a neighbouring palette colour "

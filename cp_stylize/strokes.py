@@ -47,7 +47,7 @@ from .oklab import to_oklab
 from .palette import check_palette, loaded
 from .stroke_field import StrokeField, Swirls
 
-__all__ = ["Brush", "Dabs", "place_dabs", "LAYER_RATIO"]
+__all__ = ["Brush", "Dabs", "place_dabs", "chain_links", "LAYER_RATIO"]
 
 #: Each layer's dabs are this many times narrower than the layer's before.
 LAYER_RATIO = 1.8
@@ -75,7 +75,8 @@ class Brush:
 
     ``width``, ``length``: the first layer's dabs; ``layers``: how many
     layers, each :data:`LAYER_RATIO` times finer; ``chain``: how many dabs
-    the first layer lays end to end as one stroke (:func:`_chained`); ``jitter`` in [0, 1]: how
+    the first layer lays end to end as one stroke (:func:`_chained`), and each finer layer a smaller share
+    of them (:func:`chain_links`); ``jitter`` in [0, 1]: how
     far a dab's colour moves towards a neighbouring palette colour;
     ``swirl`` in [0, 1]: how far dabs circle in swirls where the picture has
     no structure and is light (:data:`SWIRL_LIGHT`: as in the painting's sky;
@@ -213,7 +214,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
     parts = []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
-        links = brush.chain if layer == 0 and band.face is not None else 1      # the first layer's dabs in strokes
+        links = chain_links(brush.chain, layer) if band.face is not None else 1
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
         points, faces, bary = mesh.sample(n, rng)
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
@@ -258,7 +259,15 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
 
 #: Where the picture has no structure, a dab turns by up to this angle (radians) from the field, at random.
 WANDER = 0.35
-#: The first layer's dabs are laid in strokes of up to :attr:`Brush.chain`: from each dab the next goes on
+def chain_links(chain, layer):
+    """How many dabs a stroke of layer ``layer`` (0: the first, the broadest) takes at most, for a brush's
+    ``chain``: all of them in the first layer, half of them in the second, a third in the third and so on,
+    at least one.  A long stroke that follows the form carries on, narrower, where the picture has detail,
+    and a brush of short strokes (a chain of 2 or 3) lays the finer layers in single dabs."""
+    return max(1, int(chain) // (int(layer) + 1))
+
+
+#: A layer's dabs are laid in strokes of up to :func:`chain_links`: from each dab the next goes on
 #: along the field by :data:`CHAIN_STEP` of its length, with the same paint (its jitter and bristles),
 #: until the picture's colour under it changes by more than :data:`CHAIN_COLOUR` (OKLab) from where the
 #: stroke began.  Each dab keeps its own shape; together they read as one long, bending stroke of the brush.
