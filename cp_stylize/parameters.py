@@ -25,7 +25,7 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction"]
+           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction", "paints_shading"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -350,6 +350,12 @@ def takes_direction(mode, strokes=0.0, hatch_spacing=0.0):
     """Whether a run follows a direction (:data:`DIRECTIONS`): in the modes of :data:`DIRECTED_MODES`, and in
     any mode with brush strokes or hatching."""
     return mode in DIRECTED_MODES or strokes > 0 or hatch_spacing > 0
+
+
+def paints_shading(shade_light=0.0, shade_edges=0.0):
+    """Whether a run paints the form's light or edges into the colour (:mod:`cp_stylize.shading`); its
+    Warm and Cool setting acts only then."""
+    return shade_light > 0 or shade_edges > 0
 
 
 #: Mode names, in the core's order.

@@ -17,7 +17,7 @@ import numbers
 from collections.abc import Mapping
 
 from .parameters import (DIRECTED_MODES, DIRECTIONS, FILTER_PARAMETERS, MODES, NOISE_MAPPINGS, RUN, SEED_LIMITS,
-                         check_value, takes_direction)
+                         check_value, paints_shading, takes_direction)
 
 __all__ = ["StylizeSettings", "check_fields", "check_colour", "check_parameter", "is_number", "IMAGE_SIZES", "MARGINS"]
 
@@ -278,7 +278,7 @@ class StylizeSettings:
     @property
     def shading_on(self):
         """Whether the run paints the form's light or edges into the colour (:mod:`cp_stylize.shading`)."""
-        return self.shade_light > 0 or self.shade_edges > 0
+        return paints_shading(self.shade_light, self.shade_edges)
 
     @property
     def stylised(self):

@@ -259,6 +259,8 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
 
 #: Where the picture has no structure, a dab turns by up to this angle (radians) from the field, at random.
 WANDER = 0.35
+
+
 def chain_links(chain, layer):
     """How many dabs a stroke of layer ``layer`` (0: the first, the broadest) takes at most, for a brush's
     ``chain``: all of them in the first layer, half of them in the second, a third in the third and so on,

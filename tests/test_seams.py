@@ -78,7 +78,6 @@ def test_a_texture_that_matches_across_its_seam_is_not_changed():
     np.testing.assert_array_equal(heal(face, bary, before), before)
 
 
-
 def test_a_look_heals_the_textures_jump_at_its_uv_seam_and_a_filter_keeps_it():
     """A torus's texture that jumps where its UV map is cut (a ramp in u, dark at u = 0 and light at u = 1,
     read clamped): a filter keeps the texture as it is, seam and all; Oil Paint paints over the seam healed,

@@ -267,7 +267,6 @@ def test_the_first_layers_dabs_make_long_strokes_along_the_field_that_stop_at_a_
     assert not np.any(same & (cap[1:] != cap[:-1]))           # no stroke crosses the cap's edge
 
 
-
 def test_a_finer_layer_lays_its_dabs_in_strokes_of_a_share_of_the_chain(sphere):
     assert [strokes.chain_links(8, layer) for layer in range(4)] == [8, 4, 2, 2]
     assert [strokes.chain_links(3, layer) for layer in range(3)] == [3, 1, 1]     # short strokes: single fine dabs
@@ -282,6 +281,7 @@ def test_a_finer_layer_lays_its_dabs_in_strokes_of_a_share_of_the_chain(sphere):
     long, single = strokes_of(8), strokes_of(3)
     print(f"\nthe second layer's dabs a stroke: {long:.2f} with a chain of 8, {single:.2f} with 3")
     assert single == 1.0 and 1.5 < long <= 4.0
+
 
 def test_a_dab_bends_with_a_field_that_turns_and_is_straight_where_it_does_not(sphere):
     mesh, band, atlas, texels = sphere

@@ -4,7 +4,7 @@ import os
 
 import bpy
 
-from ..parameters import AXIS_DIRECTIONS, FILTERS, takes_direction
+from ..parameters import AXIS_DIRECTIONS, FILTERS, paints_shading, takes_direction
 from . import operators
 from .properties import SIZE_VIEWS, filter_property, object_scale, size_property
 
@@ -256,7 +256,7 @@ class VIEW3D_PT_cp_stylize_shading(_Closed, bpy.types.Panel):
         _prop(layout, settings, "shade_light")
         _prop(layout, settings, "shade_edges")
         col = layout.column()
-        col.active = settings.shade_light > 0 or settings.shade_edges > 0
+        col.active = paints_shading(settings.shade_light, settings.shade_edges)
         _prop(col, settings, "shade_warmth")
 
 
