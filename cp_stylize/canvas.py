@@ -25,7 +25,7 @@ from .arrays import expand_runs, smooth_step
 from .oklab import from_oklab, to_oklab
 from .palette import kept_chroma, loaded
 from .raster import face_map
-from .sparse import map_parallel
+from .sparse import map_windows
 
 __all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 
@@ -71,8 +71,11 @@ GROOVE_TEXELS = 3.0
 GROOVES = 5.0
 #: A dab's place in its stroke (:attr:`Dabs.ends`): the first (the brush touched down) or the last (it lifted).
 HEAD_END, TAIL_END = 1, 2
-#: Dabs drawn at once (a block of pairs of texels and dabs).
+#: Dabs drawn at once (a block of pairs of texels and dabs): at most this many, and at most about
+#: :data:`_PAIRS` pairs of a dab and a texel it may cover (a block's memory is a few hundred bytes a
+#: pair, whatever the atlas's size: a broad dab on a 4096 x 4096 atlas covers ten thousand texels or more).
 _CHUNK = 3000
+_PAIRS = 1 << 20
 
 
 
@@ -169,8 +172,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     shapes = _Shapes(dabs)
     uv_axes = _uv_axes(dabs, texels)
 
-    def block(s):
-        which = np.arange(s, min(s + _CHUNK, len(dabs)))
+    def block(span):
+        which = np.arange(*span)
         i, j, alpha, along, across = _covering(dabs, shapes, uv_axes, texels, which)
         difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=1)
         alpha *= strength * np.clip(2.0 - difference / CLIP, 0.0, 1.0)
@@ -184,12 +187,28 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
 
     colours = np.array(base, dtype=np.float64)
     height = np.zeros(len(texels.points))
-    for found in map_parallel(block, range(0, len(dabs), _CHUNK), progress):
+    for found in map_windows(block, _blocks(uv_axes[0]), progress):
         if found is not None:
             touched, through, added, height_through, height_added = found
             colours[touched] = colours[touched] * through[:, None] + added
             height[touched] = height[touched] * height_through + height_added
     return colours.astype(np.float32), height.astype(np.float32)
+
+
+def _blocks(axes):
+    """Spans ``(start, stop)`` of the dabs, in order, of at most :data:`_CHUNK` dabs and about :data:`_PAIRS`
+    texels their UV rasters (:func:`_raster_pairs`) may cover: ``axes`` (n, 2, 2), their half length and half
+    width in texels of the atlas."""
+    sides = 2.0 * RASTER_SLACK * np.linalg.norm(axes, axis=2) + 3.0
+    pairs = np.where(np.all(np.isfinite(sides), axis=1), sides[:, 0] * sides[:, 1], 0.0)
+    ends = np.cumsum(pairs)
+    spans, start = [], 0
+    while start < len(pairs):
+        stop = int(np.searchsorted(ends, ends[start] - pairs[start] + _PAIRS, side="right"))
+        stop = min(max(stop, start + 1), start + _CHUNK)
+        spans.append((start, stop))
+        start = stop
+    return spans
 
 
 def _under(colours, which, i, j, alpha, draws, lab, pull, shade, lab_palette):

@@ -42,9 +42,13 @@ SECONDS_PER_IMAGE_PIXEL = 1e-7
 SECONDS_PER_RUN = 0.9
 
 #: Brush strokes: seconds per baked texel and layer of strokes, per band point and layer for their
-#: stroke fields, and the share of an atlas's texels that are baked (islands and margin).
+#: stroke fields, and the share of an atlas's texels that are baked (islands and margin); bytes per texel
+#: of the atlas (the painted texels' colours, heights and places; the dabs are drawn in blocks of bounded
+#: size, :data:`cp_stylize.canvas._PAIRS`): Sunflower Vase on the photo sphere, whose UV map fills its
+#: atlas, at 4096 x 4096 peaked at 8.54 GiB, 7.42 GiB without its strokes.
 SECONDS_STROKES_PER_TEXEL = 2.5e-6
 SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
+BYTES_STROKES_PER_TEXEL = 72
 #: Sheen (the relief lit into the colour): seconds per baked texel (a 2048 x 2048 atlas whole: 3 s on two
 #: busy cores), and bytes per texel of the atlas (its texels' places in it).
 SECONDS_SHEEN_PER_TEXEL = 8e-7
@@ -111,7 +115,8 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     if settings.strokes > 0:
         layers = settings.stroke_layers
         seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
-    nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+    nbytes = texels * BYTES_STROKES_PER_TEXEL if settings.strokes > 0 else 0
+    nbytes += BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
     if settings.strokes > 0 and settings.sheen > 0:
         seconds += BAKED_SHARE * texels * SECONDS_SHEEN_PER_TEXEL
         nbytes += texels * BYTES_SHEEN_PER_TEXEL

@@ -74,6 +74,21 @@ def map_parallel(fn, items, progress=None):
     return list(_executor().map(run, items))
 
 
+def map_windows(fn, items, progress=None):
+    """``fn(x)`` for each of ``items``, yielded in order, as :func:`map_parallel` computes them, but only a
+    few at a time (twice the workers): a consumer that folds each result in as it comes holds no more than
+    that many in memory at once.  ``progress(fraction)`` as in :func:`map_parallel`, over all the items."""
+    items = list(items)
+    window = 2 * workers()
+    for start in range(0, len(items), window):
+        part = items[start:start + window]
+        step = None
+        if progress is not None:
+            def step(fraction, start=start, k=len(part)):
+                progress((start + fraction * k) / len(items))
+        yield from map_parallel(fn, part, step)
+
+
 class SplitMatrix:
     """A CSR matrix whose products with vectors run on all cores.
 

@@ -87,9 +87,12 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     assert gauss < 0.7 * per_points(ced)[0]                                   # no tensor
     s1, b1 = estimate_run(100_000, ced)
     # brush strokes cost by the texel
-    painted, _ = estimate_run(100_000, ced.replace(strokes=1.0))
-    larger, _ = estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048))
+    painted, painted_bytes = estimate_run(100_000, ced.replace(strokes=1.0))
+    larger, larger_bytes = estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048))
     assert s1 < painted < larger
+    assert painted_bytes > b1                                                 # and hold the painted texels
+    unlit = ced.replace(image_size=2048, sheen=0.0)
+    assert estimate_run(100_000, unlit.replace(strokes=1.0))[1] - estimate_run(100_000, unlit)[1] == 72 * 2048**2
     # their sheen by the texel too, and nothing without strokes
     lit, flat = (estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048, sheen=sheen)) for sheen in (0.8, 0.0))
     assert lit[0] > flat[0] + 1.0 and lit[1] == flat[1] + 4 * 2048**2

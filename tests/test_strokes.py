@@ -141,6 +141,26 @@ def test_painting_reports_progress_and_stops_when_told(sphere):
         paint(dabs, texels, np.zeros((len(texels.points), 3)), progress=stop)
 
 
+def test_painting_draws_the_dabs_in_blocks_of_bounded_size_with_the_same_result(sphere, monkeypatch):
+    mesh, band, atlas, texels = sphere
+    brush = Brush(width=0.12, length=0.45, layers=2, seed=2)
+    dabs = place_dabs(mesh, band, _stripes(band, [0, 0, 1]), brush, texel=0.01)
+    base = np.zeros((len(texels.points), 3))
+    whole = paint(dabs, texels, base)
+    axes = canvas._uv_axes(dabs, texels)[0]
+    monkeypatch.setattr(canvas, "_PAIRS", 2000)                    # a few dabs a block
+    spans = canvas._blocks(axes)
+    assert spans[0][0] == 0 and spans[-1][1] == len(dabs)
+    assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))      # every dab once, in order
+    sides = 2.0 * canvas.RASTER_SLACK * np.linalg.norm(axes, axis=2) + 3.0
+    pairs = sides[:, 0] * sides[:, 1]
+    assert len(spans) > 20
+    assert all(stop - start == 1 or pairs[start:stop].sum() <= 2000 for start, stop in spans)
+    small = paint(dabs, texels, base)
+    for a, b in zip(whole, small):
+        assert np.allclose(a, b, atol=1e-5)                          # the blocks composite to the same paint
+
+
 def test_dabs_keep_a_direction_where_a_given_field_has_none(sphere):
     mesh, band, atlas, texels = sphere
     colours = _stripes(band, [0, 0, 1])
