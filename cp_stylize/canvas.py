@@ -9,8 +9,8 @@ rasterising it in UV (or, where it crosses a seam, by a search in space), is
 clipped where the picture under it differs from its own colour, and is
 composited in order.  A brush is loaded with two colours (a second one meets
 the first in streaks along the bristles); each dab leaves a ridge profile with
-a rim and bristle furrows, and overlapping dabs stack into a height map
-(impasto); the dabs of one stroke run on into one another, and its last dab
+a rim and a few broad bristle furrows, a finer brush's thinner than a broad
+one's, and overlapping dabs stack into a height map (impasto); the dabs of one stroke run on into one another, and its last dab
 runs dry at its tail.
 """
 
@@ -65,10 +65,22 @@ LOAD_SOFT = 0.5
 LOAD_STREAK = 0.5
 #: The last dab of a stroke runs dry from this share of its half length behind its centre to its tail.
 DRY_AT = 0.4
-#: Bristle grooves are at least this many texels apart, and a dab has at most about this many of them
-#: (a broad brush leaves a few strong marks, not a comb's fine lines).
-GROOVE_TEXELS = 3.0
-GROOVES = 5.0
+#: A dab's paint is as thick as this power of its width over the widest dabs' (a fine brush carries less
+#: paint), and a finer layer's dabs lie on the paint under them as a stroke's first dab does: the broad
+#: strokes carry the relief and the fine ones do not comb it.
+FINE_PAINT = 0.5
+#: The bristles' streaks in a dab's colour are at least this many texels apart, and a dab has at most
+#: about this many of them (with two at least) ...
+STREAK_TEXELS = 3.0
+STREAKS = 5.0
+#: ... and the grooves they leave in its paint at least this many, and at most about this many (a broad
+#: brush leaves a few strong marks in the relief, not a comb's fine lines, which under a light read as
+#: fur); a dab too narrow for two grooves stands as one rounded crest.
+GROOVE_TEXELS = 6.0
+GROOVES = 3.0
+#: A dab's rims stand fully on dabs at least this many texels wide, and fade on narrower ones (whose
+#: two rims would run a texel or two apart, as hairlines).
+RIM_TEXELS = 12.0
 #: A dab's place in its stroke (:attr:`Dabs.ends`): the first (the brush touched down) or the last (it lifted).
 HEAD_END, TAIL_END = 1, 2
 #: Dabs drawn at once (a block of pairs of texels and dabs): at most this many, and at most about
@@ -170,6 +182,7 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     lab_reference = to_oklab(reference).astype(np.float32)
     lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
     shapes = _Shapes(dabs)
+    widest = float(np.median(dabs.width[dabs.layer == dabs.layer.min()])) if len(dabs) else 1.0
     uv_axes = _uv_axes(dabs, texels)
 
     def block(span):
@@ -183,7 +196,7 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
         second = colour if dabs.second is None else dabs.second[which]
         if pickup is not None and len(i):
             colour, second = _under((colour, second), which, i, j, alpha, dabs.draws[which], *pickup)
-        return _composite(dabs, texels, (colour, second), which[0], i, j, alpha, along, across)
+        return _composite(dabs, texels, (colour, second), which[0], i, j, alpha, along, across, widest)
 
     colours = np.array(base, dtype=np.float64)
     height = np.zeros(len(texels.points))
@@ -362,10 +375,10 @@ def _geometry(shapes, texels, i, j):
     return i[covered], j[covered], alpha[covered], along[covered], across[covered]
 
 
-def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
+def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest):
     """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' two colours ``colours`` (from dab
     ``first`` on): per texel touched, how much of what lies under the block shows through, and what
-    the block adds (colour and height)."""
+    the block adds (colour and height).  Paint is thinner on narrower dabs than ``widest`` (:data:`FINE_PAINT`)."""
     if not len(i):
         return None
     width = dabs.width[i]
@@ -375,12 +388,13 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
     # where a stroke's first dab bends them round its rounded head
     across = np.where(opens, across, across * _half_width(along))
     # bristle marks along the stroke, irregular: two waves across it, their number a dab's own (a stroke's
-    # dabs share it, so its marks run on through them)
-    grooves = np.clip(width / (GROOVE_TEXELS * texels.lengths[j]), 2.0, GROOVES * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
-    wave = 0.5 * np.pi * grooves * (across + 1.0)
-    broad = np.sin(wave + phase)                                         # the broadest bristles
-    bristle = 0.65 * broad + 0.35 * np.sin(1.7 * wave + 2.0 * phase)
-    groove = bristle * np.where(closes, 1.0 - 0.3 * (along + 1.0), 1.0)      # fading where the brush runs dry
+    # dabs share it, so its marks run on through them); fine streaks in its colour, fewer and broader
+    # grooves in its paint
+    texels_wide = width / texels.lengths[j]
+    fading = np.where(closes, 1.0 - 0.3 * (along + 1.0), 1.0)           # where the brush runs dry
+    broad, bristle = _bristles(texels_wide / STREAK_TEXELS, 2.0, STREAKS, phase, across)
+    groove = bristle * fading
+    ridge = _bristles(texels_wide / GROOVE_TEXELS, 1.0, GROOVES, phase, across)[1] * fading
     # a loaded brush: the second colour along one side of the stroke, meeting the first in streaks
     side_of = (5.7 * phase) % 1.0 - 0.5
     load = smooth_step(0.5 + (across - side_of + LOAD_STREAK * bristle) / LOAD_SOFT)
@@ -391,9 +405,9 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
     # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
     # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
-    thickness = (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + opens * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
+    thickness = (width / widest) ** FINE_PAINT * (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + opens * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
                                                        - closes * TAIL * 0.5 * (along + 1.0))
-    rim = RIM * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
+    rim = RIM * np.clip(texels_wide / RIM_TEXELS, 0.0, 1.0) * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
     # the paint ends at the dab's sides and at its stroke's ends within a short share of its half width: a
     # stroke's edge stands as a rounded step, anti-aliased over a texel; a dab within a stroke runs on into
     # the one before it (it lays its paint over that one's, not on top of it)
@@ -402,8 +416,8 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
     side = (smooth_step((1.0 - np.abs(across)) / edge_across)
             * np.where(opens, smooth_step((along + 1.0) / edge_along), 1.0)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
-    profile = thickness * side * (BODY + rim + GROOVE_DEPTH * groove)
-    scrape = np.where(opens, FLATTEN, 1.0)
+    profile = thickness * side * (BODY + rim + GROOVE_DEPTH * ridge)
+    scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)     # fine strokes lie on the paint
     shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, profile, shade, load, side,
@@ -416,6 +430,16 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across):
     height_through, height_shown = _over(scrape * alpha * side, heads)
     height_added = np.add.reduceat(alpha * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added
+
+
+def _bristles(count, fewest, most, phase, across):
+    """A dab's bristle marks at ``across`` (in [-1, 1]): about ``count`` across its width (at least
+    ``fewest``, at most about ``most``, by its ``phase``): its broadest bristles' wave and the marks (both in
+    [-1, 1])."""
+    grooves = np.clip(count, fewest, most * (0.7 + 0.6 * ((7.3 * phase) % 1.0)))
+    wave = 0.5 * np.pi * grooves * (across + 1.0)
+    broad = np.sin(wave + phase)
+    return broad, 0.65 * broad + 0.35 * np.sin(1.7 * wave + 2.0 * phase)
 
 
 def _over(alpha, heads):

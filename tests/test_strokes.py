@@ -270,6 +270,36 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     assert ramp.sum() > 2 and height[ramp].min() < rim.min()
 
 
+def test_a_finer_layers_paint_is_thinner_and_lies_on_the_broad_paint_under_it(sphere):
+    mesh, band, atlas, texels = sphere
+    broad = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)     # 16 texels wide
+    elsewhere = _one_dab(mesh, [0.0, 1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)
+    fine = _one_dab(mesh, [0.0, -1.0, 0.0], [1, 0, 0], length=0.35, width=0.1)   # across it, 4 texels wide
+    fine.layer[:] = 1
+    for dab in (broad, elsewhere, fine):
+        dab.ends = np.zeros(1, np.int8)                              # each within its stroke
+    base = np.zeros((len(texels.points), 3))
+    reference = np.tile(broad.colour, (len(base), 1))
+
+    def height(*dabs):
+        return paint(Dabs.concatenate(list(dabs)), texels, base, reference)[1]
+
+    alone = height(broad)
+    thin = height(elsewhere, fine)                                   # the fine dab alone on this side
+    both = height(broad, fine)
+    x, z = texels.points[:, 0], texels.points[:, 2]
+    front = texels.points[:, 1] < -0.5
+    core = front & (np.abs(z) < 0.02) & (np.abs(x) < 0.1)                 # the middle of the fine dab
+    body = front & (np.abs(x) < 0.05) & (np.abs(z) < 0.1)                 # and of the broad one
+    assert core.sum() > 5 and body.sum() > 20
+    # a brush a quarter as wide carries paint about half as thick (FINE_PAINT; its one crest stands a
+    # little above its body), so its flanks are no steeper than the broad one's
+    ratio = np.mean(thin[core]) / np.mean(alone[body])
+    assert (0.1 / 0.4) ** canvas.FINE_PAINT * 0.8 < ratio < (0.1 / 0.4) ** canvas.FINE_PAINT * 1.5
+    # and it lies on the broad stroke's paint, as a stroke's first dab does, instead of scraping it away
+    assert np.mean(both[core]) > (1.0 - canvas.FLATTEN) * np.mean(alone[core]) + 0.8 * np.mean(thin[core])
+
+
 def test_the_first_layers_dabs_make_long_strokes_along_the_field_that_stop_at_a_colour_edge(sphere):
     mesh, band, atlas, texels = sphere
     colours = _stripes(band, [0, 0, 1])                       # strokes run round the z axis, along the stripes
