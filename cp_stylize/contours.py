@@ -128,10 +128,11 @@ FINE_ANGLES = 8
 FINE_JOIN = 0.8
 
 
-def thin_lines(lightness, flat, size, radius):
+def thin_lines(lightness, flat, size, radius, width=1.0):
     """How much ink (M,) in [0, 1] the picture's thin dark features take at the atlas texels ``flat``
     (M,) of a ``size`` square atlas, from the picture's OKLab ``lightness`` (M,) there: a crane's jib,
-    a fence post, a mast, a window's bars, too thin for the finest dab to carry.
+    a fence post, a mast, a window's bars, too thin for the finest dab to carry.  Each is drawn at least
+    ``width`` texels wide, as a fine brush draws a line, not at the picture's own hairline.
 
     A feature is thin where a morphological closing by a disc of ``radius`` texels fills it in (a
     black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink.  A
@@ -141,17 +142,24 @@ def thin_lines(lightness, flat, size, radius):
     """
     from scipy import ndimage
 
-    r = max(1, int(round(radius)))
-    y, x = np.mgrid[-r:r + 1, -r:r + 1]
-    disc = x**2 + y**2 <= radius**2 + 0.25
+    disc = _disc(radius)
     image = np.ones(size * size, dtype=np.float32)
     image[flat] = lightness
     image = image.reshape(size, size)
     depth = ndimage.gaussian_filter(ndimage.grey_closing(image, footprint=disc) - image, FINE_JOIN)
     depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
                              for segment in _segments(FINE_LENGTH * radius)])
-    ink = np.clip((depth.ravel() - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
-    return ndimage.uniform_filter(ink.reshape(size, size), 3, mode="constant").ravel()[flat]   # anti-aliased
+    ink = np.clip((depth - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
+    if width > 1.5:                                    # the brush's own width, round, about the line's middle
+        ink = ndimage.grey_dilation(ink, footprint=_disc((width - 1.0) / 2.0))
+    return ndimage.uniform_filter(ink, 3, mode="constant").ravel()[flat]   # anti-aliased
+
+
+def _disc(radius):
+    """A disc of ``radius`` texels as a footprint."""
+    r = max(1, int(round(radius)))
+    y, x = np.mgrid[-r:r + 1, -r:r + 1]
+    return x**2 + y**2 <= radius**2 + 0.25
 
 
 def _segments(length):

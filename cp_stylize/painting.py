@@ -34,9 +34,12 @@ GRAIN_REACH = 0.12
 LINE_EDGE = 0.04
 #: The picture's thin dark lines (:func:`cp_stylize.contours.thin_lines`: a crane's jib, a mast, a fence
 #: post, too thin for the finest dab) are inked this many times the Detail setting (at most fully), with a
-#: closing disc of this share of the finest dabs' width, and at least 1.5 texels.
+#: closing disc of this share of the finest dabs' width, and at least 1.5 texels; each is drawn as a
+#: rigger's line this share of the finest dabs' width wide (and at least its own) where it is inked fully,
+#: and narrower as it is inked less (a faint line stays fine rather than spread as a grey smear).
 THIN = 2.5
 THIN_RADIUS = 0.4
+THIN_WIDTH = 0.5
 #: Sheen (:func:`_sheen`) lights the paint's relief as if it stood this many times higher than the Bump node
 #: shows it at Relief 1 (:data:`cp_stylize.canvas.THICKNESS`): the colour alone has to carry it.
 SHEEN_DEPTH = 2.0
@@ -113,8 +116,10 @@ class Painting:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no dab can carry, drawn as a rigger would
                     finest = np.median(dabs.width[dabs.layer == dabs.layer.max()]) / np.median(where.lengths)
-                    thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
-                    out = self._inked(out, min(1.0, THIN * self.detail) * thin)
+                    ink = min(1.0, THIN * self.detail)
+                    thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest),
+                                      ink * THIN_WIDTH * finest)
+                    out = self._inked(out, ink * thin)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself

@@ -81,3 +81,23 @@ def test_thin_lines_leave_dots_and_faint_lines_to_the_dabs():
     faint = np.full((size, size), 0.8, dtype=np.float32)
     faint[:, 47:49] = 0.8 - 0.02                                 # a line fainter than FINE_START
     assert _thin(faint).max() == 0.0
+
+
+def test_a_thin_line_is_drawn_as_wide_as_the_brush_asked_for():
+    size = 96
+    y, x = np.mgrid[:size, :size] - size / 2 + 0.5
+    image = np.full((size, size), 0.8, dtype=np.float32)
+    image[np.abs(y - 0.5) < 0.1] = 0.35                         # a hairline, one texel wide, along the rows
+    flat = np.arange(size * size)
+    middle = np.abs(x) < 30
+
+    def inked_rows(width):
+        ink = thin_lines(image.ravel(), flat, size, 2.0, width).reshape(size, size)
+        return int(np.sum(ink[:, size // 2] > 0.5)), ink
+
+    hairline, _ = inked_rows(1.0)
+    brushed, ink = inked_rows(7.0)
+    assert hairline <= 3                                        # the picture's own line, anti-aliased
+    assert 7 <= brushed <= 9                                    # a brush's line, seven texels wide
+    assert ink[(np.abs(y) < 3) & middle].min() > 0.5            # whole along its length
+    assert ink[(np.abs(y) > 6) & middle].max() < 0.05           # and no wider
