@@ -39,8 +39,9 @@ PRESETS = ("starry_night", "van_gogh_form", "sunflower_vase")
 SUBJECTS = ("suzanne", "sphere", "city")
 SIZE = 1024
 #: The stylized image's size: a 1024-pixel render of an object shows about half of its texture, so a
-#: 2048-pixel image gives each pixel of the render a texel of its own (the texel density a studio sets
-#: for a hero asset seen at that size).
+#: 2048-pixel image gives each pixel of Suzanne's render about a texel of its own (the texel density a
+#: studio sets for a hero asset seen at that size); the sphere's UV map spreads its image over the whole
+#: of its parallels, so at its equator, seen face on, a texel spans about 1.4 pixels of the render.
 IMAGE_SIZE = 2048
 #: The crop of each render at full size: (row, column) of its top left corner, as shares of the render.
 CROPS = {"suzanne": (0.22, 0.3), "sphere": (0.32, 0.32), "city": (0.05, 0.35), "torus": (0.25, 0.12)}
