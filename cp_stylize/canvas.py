@@ -10,8 +10,8 @@ clipped where the picture under it differs from its own colour, and is
 composited in order.  A brush is loaded with two colours (a second one meets
 the first in streaks along the bristles); each dab leaves a ridge profile with
 a rim and a few broad bristle furrows, a finer brush's thinner than a broad
-one's, and overlapping dabs stack into a height map (impasto); the dabs of one stroke run on into one another, and its last dab
-runs dry at its tail.
+one's, and overlapping dabs stack into a height map (impasto); the dabs of one
+stroke run on into one another, and its last dab runs dry at its tail.
 """
 
 from __future__ import annotations
@@ -182,7 +182,7 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     lab_reference = to_oklab(reference).astype(np.float32)
     lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
     shapes = _Shapes(dabs)
-    widest = float(np.median(dabs.width[dabs.layer == dabs.layer.min()])) if len(dabs) else 1.0
+    widest = dabs.layer_width() if len(dabs) else 1.0
     uv_axes = _uv_axes(dabs, texels)
 
     def block(span):
@@ -212,7 +212,7 @@ def _blocks(axes):
     """Spans ``(start, stop)`` of the dabs, in order, of at most :data:`_CHUNK` dabs and about :data:`_PAIRS`
     texels their UV rasters (:func:`_raster_pairs`) may cover: ``axes`` (n, 2, 2), their half length and half
     width in texels of the atlas."""
-    sides = 2.0 * RASTER_SLACK * np.linalg.norm(axes, axis=2) + 3.0
+    sides = 2.0 * np.linalg.norm(_grown(axes), axis=2)
     pairs = np.where(np.all(np.isfinite(sides), axis=1), sides[:, 0] * sides[:, 1], 0.0)
     ends = np.cumsum(pairs)
     spans, start = [], 0
@@ -278,8 +278,7 @@ def _raster_pairs(uv_axes, texels, which):
     """Pairs (dab, texel index) of the texels inside each dab's UV parallelogram (with slack)."""
     axes, centre = uv_axes[0][which], uv_axes[1][which]
     size = texels.size
-    grow = RASTER_SLACK + 1.5 / np.maximum(np.linalg.norm(axes, axis=2), 1e-9)     # (n, 2)
-    axes = axes * grow[:, :, None]
+    axes = _grown(axes)
     corners = centre[:, None, :] + np.stack([axes[:, 0] + axes[:, 1], axes[:, 0] - axes[:, 1],
                                              -axes[:, 0] - axes[:, 1], -axes[:, 0] + axes[:, 1]], axis=1)
     finite = np.all(np.isfinite(corners.reshape(len(which), -1)), axis=1)
@@ -309,6 +308,13 @@ def _raster_pairs(uv_axes, texels, which):
     position = texels.position[y[run].astype(np.int64) * size + lo[run] + col]
     found = position >= 0
     return which[unit[run[found]]], position[found]
+
+
+def _grown(axes):
+    """The half axes (n, 2, 2) of the dabs' UV rasters: their footprints' ``axes`` made :data:`RASTER_SLACK`
+    times longer, and a texel and a half more each way."""
+    grow = RASTER_SLACK + 1.5 / np.maximum(np.linalg.norm(axes, axis=2), 1e-9)     # (n, 2)
+    return axes * grow[:, :, None]
 
 
 def _ball_pairs(dabs, texels, which):
@@ -378,7 +384,8 @@ def _geometry(shapes, texels, i, j):
 def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest):
     """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' two colours ``colours`` (from dab
     ``first`` on): per texel touched, how much of what lies under the block shows through, and what
-    the block adds (colour and height).  Paint is thinner on narrower dabs than ``widest`` (:data:`FINE_PAINT`)."""
+    the block adds (colour and height).  Paint is thinner on narrower dabs than ``widest``
+    (:data:`FINE_PAINT`)."""
     if not len(i):
         return None
     width = dabs.width[i]
@@ -405,8 +412,8 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest)
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
     # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
     # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
-    thickness = (width / widest) ** FINE_PAINT * (0.7 + 0.6 * ((3.1 * phase) % 1.0)) * (1.0 + opens * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2))
-                                                       - closes * TAIL * 0.5 * (along + 1.0))
+    thickness = ((width / widest) ** FINE_PAINT * (0.7 + 0.6 * ((3.1 * phase) % 1.0))
+                 * (1.0 + opens * HEAD * np.exp(-(((along + 0.7) / 0.25) ** 2)) - closes * TAIL * 0.5 * (along + 1.0)))
     rim = RIM * np.clip(texels_wide / RIM_TEXELS, 0.0, 1.0) * np.exp(-(((np.abs(across) - RIM_AT) / 0.15) ** 2))
     # the paint ends at the dab's sides and at its stroke's ends within a short share of its half width: a
     # stroke's edge stands as a rounded step, anti-aliased over a texel; a dab within a stroke runs on into
@@ -417,7 +424,7 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest)
             * np.where(opens, smooth_step((along + 1.0) / edge_along), 1.0)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
     profile = thickness * side * (BODY + rim + GROOVE_DEPTH * ridge)
-    scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)     # fine strokes lie on the paint
+    scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)   # fine strokes lie on the paint
     shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
     i, j, alpha, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, profile, shade, load, side,

@@ -112,11 +112,11 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     seconds += image_pixels * SECONDS_PER_IMAGE_PIXEL
     if unwrap:
         seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]
+    nbytes = BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
     if settings.strokes > 0:
         layers = settings.stroke_layers
         seconds += (BAKED_SHARE * texels * SECONDS_STROKES_PER_TEXEL + n_points * SECONDS_STROKE_FIELD_PER_POINT) * layers
-    nbytes = texels * BYTES_STROKES_PER_TEXEL if settings.strokes > 0 else 0
-    nbytes += BYTES_PER_RUN + n_points * BYTES_PER_BAND_POINT + triangles * BYTES_PER_TRIANGLE + texels * BYTES_PER_TEXEL
+        nbytes += texels * BYTES_STROKES_PER_TEXEL
     if settings.strokes > 0 and settings.sheen > 0:
         seconds += BAKED_SHARE * texels * SECONDS_SHEEN_PER_TEXEL
         nbytes += texels * BYTES_SHEEN_PER_TEXEL

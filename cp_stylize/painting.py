@@ -106,7 +106,7 @@ class Painting:
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
             if self.sheen > 0:
-                widest = float(np.median(dabs.width[dabs.layer == dabs.layer.min()]))
+                widest = dabs.layer_width()
                 reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
                 out = _sheen(out, height, where, THICKNESS * widest, self.sheen, reach)
             if source is not None:
@@ -115,7 +115,7 @@ class Painting:
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no dab can carry, drawn as a rigger would
-                    finest = np.median(dabs.width[dabs.layer == dabs.layer.max()]) / np.median(where.lengths)
+                    finest = dabs.layer_width(finest=True) / np.median(where.lengths)
                     ink = min(1.0, THIN * self.detail)
                     thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest),
                                       ink * THIN_WIDTH * finest)

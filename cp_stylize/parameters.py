@@ -25,7 +25,8 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction", "paints_shading"]
+           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction",
+           "paints_shading"]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -168,6 +168,11 @@ class Dabs:
         """Each dab's length over its width (n,)."""
         return self.length / self.width
 
+    def layer_width(self, finest=False):
+        """The median width of the first (broadest) layer's dabs, or with ``finest`` of the finest layer's."""
+        layer = self.layer.max() if finest else self.layer.min()
+        return float(np.median(self.width[self.layer == layer]))
+
 
 def _spread(points, cell, rng):
     """Indices of ``points`` with at most one in each cube of side ``cell``, chosen at random."""

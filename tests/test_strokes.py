@@ -152,7 +152,7 @@ def test_painting_draws_the_dabs_in_blocks_of_bounded_size_with_the_same_result(
     spans = canvas._blocks(axes)
     assert spans[0][0] == 0 and spans[-1][1] == len(dabs)
     assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))      # every dab once, in order
-    sides = 2.0 * canvas.RASTER_SLACK * np.linalg.norm(axes, axis=2) + 3.0
+    sides = 2.0 * np.linalg.norm(canvas._grown(axes), axis=2)     # the sides of each dab's UV raster
     pairs = sides[:, 0] * sides[:, 1]
     assert len(spans) > 20
     assert all(stop - start == 1 or pairs[start:stop].sum() <= 2000 for start, stop in spans)
