@@ -138,7 +138,8 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
     black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink.  A
     disc is the same in every direction, so the lines do not depend on how a chart lies in the atlas;
     the atlas's margin texels continue the surface past each chart's edge, so the few texels the
-    disc reads across an edge come from the surface on the other side.
+    disc reads across an edge come from the surface on the other side.  With several ``width`` (K,),
+    the ink (K, M) at each of them.
     """
     from scipy import ndimage
 
@@ -150,9 +151,12 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
     depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
                              for segment in _segments(FINE_LENGTH * radius)])
     ink = np.clip((depth - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
-    if width > 1.5:                                    # the brush's own width, round, about the line's middle
-        ink = ndimage.grey_dilation(ink, footprint=_disc((width - 1.0) / 2.0))
-    return ndimage.uniform_filter(ink, 3, mode="constant").ravel()[flat]   # anti-aliased
+    out = []
+    for w in np.atleast_1d(width):
+        # the brush's own width, round, about the line's middle
+        wide = ndimage.grey_dilation(ink, footprint=_disc((w - 1.0) / 2.0)) if w > 1.5 else ink
+        out.append(ndimage.uniform_filter(wide, 3, mode="constant").ravel()[flat])   # anti-aliased
+    return out[0] if np.ndim(width) == 0 else np.stack(out)
 
 
 def _disc(radius):

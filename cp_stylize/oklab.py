@@ -16,7 +16,7 @@ import numpy as np
 
 from .texture import linear_to_srgb, srgb_to_linear
 
-__all__ = ["to_oklab", "from_oklab", "hue_difference"]
+__all__ = ["to_oklab", "from_oklab", "within_gamut", "hue_difference"]
 
 _LMS = np.array([[0.4122214708, 0.5363325363, 0.0514459929],
                  [0.2119034982, 0.6806995451, 0.1073969566],
@@ -38,6 +38,28 @@ def from_oklab(lab):
     """sRGB-encoded colours (..., 3), float64, of OKLab ``(L, a, b)`` (..., 3); clipped to [0, 1]."""
     lms = (np.asarray(lab, dtype=np.float64) @ _LAB_INV.T) ** 3
     return np.clip(linear_to_srgb(np.clip(lms @ _LMS_INV.T, 0.0, 1.0)), 0.0, 1.0)
+
+
+def within_gamut(lab, steps=16):
+    """OKLab colours (..., 3) with their chroma lowered as little as needed (by bisection, ``steps`` halvings)
+    for them to lie in sRGB's gamut at their own lightness (clipped to [0, 1]) and hue: a dark colour of
+    high chroma keeps its lightness and hue, where :func:`from_oklab`'s clipping would change both."""
+    lab = np.array(lab, dtype=np.float64)
+    lab[..., 0] = np.clip(lab[..., 0], 0.0, 1.0)
+
+    def inside(scale):
+        scaled = np.concatenate([lab[..., :1], lab[..., 1:] * scale[..., None]], axis=-1)
+        linear = ((scaled @ _LAB_INV.T) ** 3) @ _LMS_INV.T
+        return np.all((linear >= -1e-9) & (linear <= 1.0 + 1e-9), axis=-1)
+
+    low = inside(np.ones(lab.shape[:-1])).astype(np.float64)       # 1 where already inside; greys always are
+    high = np.ones_like(low)
+    for _ in range(steps):
+        middle = 0.5 * (low + high)
+        ok = inside(middle)
+        low, high = np.where(ok, middle, low), np.where(ok, high, middle)
+    lab[..., 1:] *= low[..., None]
+    return lab
 
 
 def hue_difference(a, b):

@@ -16,11 +16,12 @@ import numpy as np
 from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
-from .oklab import from_oklab, to_oklab
+from .oklab import from_oklab, to_oklab, within_gamut
 from .canvas import THICKNESS, Texels, paint
 from .lines import inked
 from .stroke_field import StrokeField
 from .strokes import place_dabs
+from .watercolour import solid_noise
 
 __all__ = ["Painting", "painting", "GRAIN_REACH", "LINE_EDGE"]
 
@@ -40,6 +41,15 @@ LINE_EDGE = 0.04
 THIN = 2.5
 THIN_RADIUS = 0.4
 THIN_WIDTH = 0.5
+#: Lines are laid with a brush, not drawn with a pen: a brush's pressure swells and eases along a line, by a
+#: smooth random function of the surface (:func:`cp_stylize.watercolour.solid_noise`, its features this many
+#: of the finest dabs' widths across).  The picture's thin lines run from this share of their width to all of
+#: it; the contours, as wide everywhere, from this share of their strength to all of it.
+PRESSURE = 3.0
+THIN_PRESS, CONTOUR_PRESS = 0.35, 0.55
+#: A line is painted in a dark paint that keeps this share of the chroma of the paint under it (the rest
+#: the ink's): a twig over green leaves is a deep green, a crane over a yellow sky a dark umber.
+LINE_HUE = 0.4
 #: Sheen (:func:`_sheen`) lights the paint's relief as if it stood this many times higher than the Bump node
 #: shows it at Relief 1 (:data:`cp_stylize.canvas.THICKNESS`): the colour alone has to carry it.
 SHEEN_DEPTH = 2.0
@@ -91,7 +101,7 @@ class Painting:
         flat, points, faces, barys = texels
         colours = np.asarray(colours)
         out = colours[:, :3].astype(np.float64)
-        height = fine = None
+        height = fine = pressure = None
         if self.dabs is not None and len(self.dabs):
             mesh, dabs = self.mesh, self.dabs
             where = Texels(points, mesh.normal(points, faces, barys), mesh.piece[faces],
@@ -117,21 +127,34 @@ class Painting:
                     # the thin lines no dab can carry, drawn as a rigger would
                     finest = dabs.layer_width(finest=True) / np.median(where.lengths)
                     ink = min(1.0, THIN * self.detail)
-                    thin = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest),
-                                      ink * THIN_WIDTH * finest)
-                    out = self._inked(out, ink * thin)
+                    width = ink * THIN_WIDTH * finest
+                    narrow, wide = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
+                                              max(1.5, THIN_RADIUS * finest), [THIN_PRESS * width, width])
+                    pressure = solid_noise(points, PRESSURE * finest * float(np.median(where.lengths)), seed=5,
+                                           octaves=2)
+                    out = self._inked(out, ink * (narrow + pressure * (wide - narrow)))
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
                 strength = strength * _box(smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
+            if pressure is not None:
+                strength = strength * (CONTOUR_PRESS + (1.0 - CONTOUR_PRESS) * pressure)
             out = self._inked(out, self.contours * strength)
         painted = colours.copy()
         painted[:, :3] = out
         return painted, height
 
     def _inked(self, colours, amount):
-        """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ink, or darkened without one."""
-        return inked(colours, amount, self.ink)
+        """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ink (keeping :data:`LINE_HUE` of
+        their own chroma, as a dark paint mixed on the canvas), or darkened without one."""
+        if self.ink is None:
+            return inked(colours, amount, None)
+        lab = to_oklab(colours)
+        ink = to_oklab(self.ink[None, :])[0]
+        paint = np.empty_like(lab)
+        paint[:, 0] = ink[0]
+        paint[:, 1:] = ink[1:] + LINE_HUE * (lab[:, 1:] - ink[1:])
+        return colours + amount[:, None] * (from_oklab(within_gamut(paint)) - colours)
 
 
 def _sheen(painted, height, texels, thickness, strength, reach=1):

@@ -5,7 +5,7 @@ import pytest
 
 from cp_stylize import Band, Sphere
 from cp_stylize.contours import contour_field, ink_colour, line_strength, line_width, thin_lines
-from cp_stylize.oklab import hue_difference, to_oklab
+from cp_stylize.oklab import from_oklab, hue_difference, to_oklab
 
 
 @pytest.fixture(scope="module")
@@ -101,3 +101,28 @@ def test_a_thin_line_is_drawn_as_wide_as_the_brush_asked_for():
     assert 7 <= brushed <= 9                                    # a brush's line, seven texels wide
     assert ink[(np.abs(y) < 3) & middle].min() > 0.5            # whole along its length
     assert ink[(np.abs(y) > 6) & middle].max() < 0.05           # and no wider
+    # several widths at once, as a brush's pressure swells and eases along a line: each as drawn alone
+    both = thin_lines(image.ravel(), flat, size, 2.0, [3.0, 7.0])
+    assert both.shape == (2, size * size)
+    assert np.array_equal(both[1].reshape(size, size), ink)
+    assert np.all(both[0] <= both[1]) and int(np.sum(both[0].reshape(size, size)[:, size // 2] > 0.5)) <= 5
+
+
+def test_a_line_is_painted_in_a_dark_paint_of_the_colour_under_it():
+    from cp_stylize.painting import LINE_HUE, Painting
+
+    ink = ink_colour([[0.05, 0.1, 0.3], [0.9, 0.8, 0.3]])
+    lines = Painting(None, None, ink=ink)
+    under = np.array([[0.2, 0.6, 0.2], [0.95, 0.8, 0.2], [0.5, 0.5, 0.5]])      # leaves, a yellow sky, a grey
+    full = to_oklab(lines._inked(under, np.ones(3)))
+    assert np.allclose(full[:, 0], to_oklab(ink)[0], atol=1e-6)             # as dark as the ink
+    assert hue_difference(full[0], full[1]) > 60                           # a deep green, a dark umber
+    # the ink's chroma and LINE_HUE of the colour's under it, lowered where a dark colour leaves sRGB's gamut
+    expected = to_oklab(ink)[1:] + LINE_HUE * (to_oklab(under)[:, 1:] - to_oklab(ink)[1:])
+    assert np.all(hue_difference(full, np.column_stack([full[:, 0], expected])) < 1.0)
+    assert np.all(np.hypot(*full[:, 1:].T) <= np.hypot(*expected.T) + 1e-6)
+    assert np.array_equal(lines._inked(under, np.zeros(3)), under)           # no line, no change
+    half = lines._inked(under, np.full(3, 0.5))
+    assert np.allclose(half, 0.5 * (under + from_oklab(full)), atol=1e-6)
+    plain = Painting(None, None)._inked(under, np.ones(3))                    # without a palette, darkened
+    assert np.allclose(plain, 0.25 * under)
