@@ -17,13 +17,14 @@ so a star crosses UV seams whole:
   through it), and with its whole halo clear of the mesh's open border.  Those
   places are taken in a random order (``seed``), each with its own radius, so
   the stars scatter over the sky in several sizes, at most ``count`` of them,
-  their halos overlapping by at most :data:`OVERLAP` of their reach;
+  their halos kept apart by at least -:data:`OVERLAP` of their reach;
 - **painted into the picture**, before the palette maps its colours, so the
   palette gives a star its own colours: a :data:`CORE` colour over the core
   (:data:`CORE_SHARE` of the radius) and around it, out to :data:`HALO` radii,
   rings a stroke's width apart of :data:`RINGS` colours by turns, fading out
   over the halo's outer :data:`FADE`.  Each star's radius is drawn between :data:`SIZES` times the
-  radius asked for: the stars differ in size as the painting's do;
+  radius asked for, evenly in its logarithm (as many small stars as large): the stars differ in size
+  as the painting's do;
 - **each its own**, as no two of the painting's stars are alike: its rings
   are lobed (:data:`WOBBLE`), a little wider or narrower apart (:data:`RING_SPREAD`),
   begin with either colour, and its core runs from :data:`CORE` at the centre
@@ -48,8 +49,9 @@ __all__ = ["Stars", "find_stars", "on_band", "on_picture"]
 
 #: A star's halo reaches this many core radii from its centre.
 HALO = 2.6
-#: Two stars' halos may overlap by at most this share of the sum of their reaches.
-OVERLAP = 0.0
+#: Two stars' halos may overlap by at most this share of the sum of their reaches (below 0: they keep that
+#: share of it apart, so the stars scatter over the sky instead of standing halo to halo).
+OVERLAP = -0.35
 #: A star's core may be lighter or darker than its halo by at most this much (OKLab; smoothed).
 MIN_CONTRAST = 0.03
 #: Stars go where the halo's smoothed OKLab lightness is at least this ...
@@ -261,7 +263,7 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
         return none
     rng = np.random.default_rng([int(seed), 7])
     candidates = rng.permutation(candidates)[:CANDIDATES]             # scattered over the sky, not in a row
-    radii = radius * (SIZES[1] + (SIZES[0] - SIZES[1]) * rng.random(len(candidates)))
+    radii = radius * SIZES[1] * (SIZES[0] / SIZES[1]) ** rng.random(len(candidates))   # as many small as large
     border = _border_points(mesh, 0.5 * radius)
     if len(border):                                      # a whole star, not one cut by the border
         clear, _ = cKDTree(border).query(band.cp[candidates])
