@@ -63,8 +63,9 @@ SKY = 0.6
 CALM = 0.25
 #: ... a spread of at most this (OKLab) is calm in any picture.
 STILL = 0.01
-#: The largest and smallest stars' radii, as shares of the radius asked for.
-SIZES = (1.5, 0.5)
+#: The largest and smallest stars' radii, as shares of the radius asked for (the smallest star's core is
+#: still about as wide as the finest dabs, which would otherwise paint over it and leave a hollow ring).
+SIZES = (1.5, 0.75)
 #: The core's colour and the halo rings' colours, taken by turns (sRGB, in the picture: the palette
 #: mapping makes them the palette's own).
 CORE = (1.0, 0.94, 0.62)
