@@ -101,7 +101,7 @@ class Painting:
         flat, points, faces, barys = texels
         colours = np.asarray(colours)
         out = colours[:, :3].astype(np.float64)
-        height = fine = pressure = None
+        height = fine = wavelength = None
         if self.dabs is not None and len(self.dabs):
             mesh, dabs = self.mesh, self.dabs
             where = Texels(points, mesh.normal(points, faces, barys), mesh.piece[faces],
@@ -130,15 +130,18 @@ class Painting:
                     width = ink * THIN_WIDTH * finest
                     narrow, wide = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
                                               max(1.5, THIN_RADIUS * finest), [THIN_PRESS * width, width])
-                    pressure = solid_noise(points, PRESSURE * finest * float(np.median(where.lengths)), seed=5,
-                                           octaves=2)
-                    out = self._inked(out, ink * (narrow + pressure * (wide - narrow)))
+                    wavelength = PRESSURE * finest * float(np.median(where.lengths))
+                    line = narrow.copy()
+                    swells = wide > narrow                   # lines cover few of the texels
+                    line[swells] += _pressure(points[swells], wavelength) * (wide - narrow)[swells]
+                    out = self._inked(out, ink * line)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
                 strength = strength * _box(smooth_step(-fine / LINE_EDGE), flat, self.atlas.size)
-            if pressure is not None:
-                strength = strength * (CONTOUR_PRESS + (1.0 - CONTOUR_PRESS) * pressure)
+            if wavelength is not None:
+                drawn = strength > 0
+                strength[drawn] *= CONTOUR_PRESS + (1.0 - CONTOUR_PRESS) * _pressure(points[drawn], wavelength)
             out = self._inked(out, self.contours * strength)
         painted = colours.copy()
         painted[:, :3] = out
@@ -149,12 +152,21 @@ class Painting:
         their own chroma, as a dark paint mixed on the canvas), or darkened without one."""
         if self.ink is None:
             return inked(colours, amount, None)
-        lab = to_oklab(colours)
+        drawn = amount > 0                              # lines cover few of the texels
+        lab = to_oklab(colours[drawn])
         ink = to_oklab(self.ink[None, :])[0]
         paint = np.empty_like(lab)
         paint[:, 0] = ink[0]
         paint[:, 1:] = ink[1:] + LINE_HUE * (lab[:, 1:] - ink[1:])
-        return colours + amount[:, None] * (from_oklab(within_gamut(paint)) - colours)
+        out = np.array(colours, dtype=np.float64)
+        out[drawn] += amount[drawn, None] * (from_oklab(within_gamut(paint)) - out[drawn])
+        return out
+
+
+def _pressure(points, wavelength):
+    """A brush's pressure (M,) in [0, 1] at surface ``points`` (M, 3), swelling and easing over about
+    ``wavelength`` (:data:`PRESSURE`)."""
+    return solid_noise(points, wavelength, seed=5, octaves=2)
 
 
 def _sheen(painted, height, texels, thickness, strength, reach=1):
