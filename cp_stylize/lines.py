@@ -68,8 +68,8 @@ INK = (0.02, 0.02, 0.02)
 
 
 def inked(colours, amount, ink=None, darken=0.25):
-    """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ``ink`` (sRGB), or, without one,
-    towards ``darken`` times their own values."""
+    """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ``ink`` (sRGB: one colour (3,), or
+    one for each (M, 3)), or, without one, towards ``darken`` times their own values."""
     target = darken * colours if ink is None else np.asarray(ink, dtype=colours.dtype)
     return colours + amount[:, None] * (target - colours)
 

@@ -47,18 +47,20 @@ def within_gamut(lab, steps=16):
     lab = np.array(lab, dtype=np.float64)
     lab[..., 0] = np.clip(lab[..., 0], 0.0, 1.0)
 
-    def inside(scale):
-        scaled = np.concatenate([lab[..., :1], lab[..., 1:] * scale[..., None]], axis=-1)
+    def inside(colours, scale):
+        scaled = np.concatenate([colours[:, :1], colours[:, 1:] * scale[:, None]], axis=1)
         linear = ((scaled @ _LAB_INV.T) ** 3) @ _LMS_INV.T
-        return np.all((linear >= -1e-9) & (linear <= 1.0 + 1e-9), axis=-1)
+        return np.all((linear >= -1e-9) & (linear <= 1.0 + 1e-9), axis=1)
 
-    low = inside(np.ones(lab.shape[:-1])).astype(np.float64)       # 1 where already inside; greys always are
-    high = np.ones_like(low)
-    for _ in range(steps):
+    flat = lab.reshape(-1, 3)
+    outside = np.flatnonzero(~inside(flat, np.ones(len(flat))))     # greys are always inside
+    beyond = flat[outside]
+    low, high = np.zeros(len(outside)), np.ones(len(outside))
+    for _ in range(steps):                               # the colours beyond the gamut alone
         middle = 0.5 * (low + high)
-        ok = inside(middle)
+        ok = inside(beyond, middle)
         low, high = np.where(ok, middle, low), np.where(ok, high, middle)
-    lab[..., 1:] *= low[..., None]
+    flat[outside, 1:] *= low[:, None]
     return lab
 
 

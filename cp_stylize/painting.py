@@ -152,14 +152,13 @@ class Painting:
         their own chroma, as a dark paint mixed on the canvas), or darkened without one."""
         if self.ink is None:
             return inked(colours, amount, None)
-        drawn = amount > 0                              # lines cover few of the texels
-        lab = to_oklab(colours[drawn])
-        ink = to_oklab(self.ink[None, :])[0]
-        paint = np.empty_like(lab)
-        paint[:, 0] = ink[0]
-        paint[:, 1:] = ink[1:] + LINE_HUE * (lab[:, 1:] - ink[1:])
         out = np.array(colours, dtype=np.float64)
-        out[drawn] += amount[drawn, None] * (from_oklab(within_gamut(paint)) - out[drawn])
+        drawn = amount > 0                              # lines cover few of the texels
+        ink = to_oklab(self.ink)
+        paint = np.empty((int(drawn.sum()), 3))
+        paint[:, 0] = ink[0]
+        paint[:, 1:] = ink[1:] + LINE_HUE * (to_oklab(out[drawn])[:, 1:] - ink[1:])
+        out[drawn] = inked(out[drawn], amount[drawn], from_oklab(within_gamut(paint)))
         return out
 
 
