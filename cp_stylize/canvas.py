@@ -27,7 +27,7 @@ from .palette import kept_chroma, loaded
 from .raster import face_map
 from .sparse import map_windows
 
-__all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
+__all__ = ["Texels", "paint", "clipped", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 
 #: A dab's full height (a height of 1), as a share of the widest strokes' width: the relief's depth (the Bump
 #: node's distance at Relief 1, and the height Sheen lights).  Deep enough that the strokes' ridges and
@@ -36,8 +36,9 @@ __all__ = ["Texels", "paint", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 THICKNESS = 0.05
 
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
-#: gone at twice.
+#: gone at :data:`CLIP_GONE`.
 CLIP = 0.2
+CLIP_GONE = 0.4
 #: Of the height a later stroke paints over, this share is scraped away (the rest stays under it: paint
 #: builds up where strokes overlap); a dab within a stroke lays its paint over the one before it, all of it.
 FLATTEN = 0.35
@@ -148,12 +149,13 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     texels : Texels
     base : ndarray, shape (M, 3)
         The colours under the paint.
-    reference : ndarray, shape (M, 3), optional
-        The colours a dab is clipped against (:data:`CLIP`), sRGB: the picture's own at the texels;
+    reference : ndarray, shape (M, 3) or (M, 3k), optional
+        The colours a dab is clipped against (:func:`clipped`), sRGB: the picture's own at the texels, or
+        k sets side by side (the picture and its paint), when the largest of the k differences clips;
         default ``base``.
     strength : float
         The dabs' opacity.
-    source : ndarray, shape (n, 3), optional
+    source : ndarray, shape (n, 3) or (n, 3k), optional
         Each dab's own colour in ``reference``'s terms (the picture's at its centre); default its colour.
     pickup : tuple, optional
         ``(colours (M, 3) in OKLab, pull, shade, lab_palette)``: each dab takes the mean of ``colours``
@@ -179,8 +181,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     every island it covers.
     """
     reference = base if reference is None else reference
-    lab_reference = to_oklab(reference).astype(np.float32)
-    lab_dabs = to_oklab(dabs.colour if source is None else source).astype(np.float32)
+    lab_reference = _lab_groups(reference)
+    lab_dabs = _lab_groups(dabs.colour if source is None else source)
     shapes = _Shapes(dabs)
     widest = dabs.layer_width() if len(dabs) else 1.0
     uv_axes = _uv_axes(dabs, texels)
@@ -188,8 +190,8 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
     def block(span):
         which = np.arange(*span)
         i, j, alpha, along, across = _covering(dabs, shapes, uv_axes, texels, which)
-        difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=1)
-        alpha *= strength * np.clip(2.0 - difference / CLIP, 0.0, 1.0)
+        difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=2).max(axis=1)
+        alpha *= strength * clipped(difference)
         drawn = alpha > 1e-3
         i, j, alpha, along, across = (x[drawn] for x in (i, j, alpha, along, across))
         colour = dabs.colour[which]
@@ -206,6 +208,18 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
             colours[touched] = colours[touched] * through[:, None] + added
             height[touched] = height[touched] * height_through + height_added
     return colours.astype(np.float32), height.astype(np.float32)
+
+
+def _lab_groups(colours):
+    """sRGB colours (M, 3k), k of them side by side, in OKLab (M, k, 3)."""
+    colours = np.asarray(colours, dtype=np.float64)
+    return to_oklab(colours.reshape(len(colours), -1, 3)).astype(np.float32)
+
+
+def clipped(difference):
+    """How much of a dab paints where the picture differs from its own colour by ``difference`` (OKLab):
+    all of it up to :data:`CLIP`, none from :data:`CLIP_GONE` on."""
+    return np.clip((CLIP_GONE - difference) / (CLIP_GONE - CLIP), 0.0, 1.0)
 
 
 def _blocks(axes):

@@ -111,6 +111,13 @@ class Painting:
             if self.source is not None:
                 picture = np.asarray(self.source(faces, barys), dtype=np.float64)[:, :3]
                 reference, source = picture, np.asarray(self.source(dabs.face, dabs.bary))[:, :3]
+                if self.recolour is not None:
+                    # a dab stops where the picture or its paint changes: a road's marking a little lighter
+                    # than the road, painted in the palette's yellow, is not painted over in its umber.  The
+                    # paint is the band's, smooth (the picture's texel noise mapped onto the palette would
+                    # flicker the clip into speckle), at the texels and at the texel nearest each dab's centre
+                    _, nearest = where.tree.query(dabs.centre)
+                    reference, source = np.hstack([picture, out]), np.hstack([source, out[nearest]])
                 under = to_oklab(picture if self.recolour is None else self.recolour(picture))
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,

@@ -133,6 +133,11 @@ RUN = {p.name: p for p in (
                                        "half as many, the third a third (1: single dabs)", 1, 8, 3,
               "count", precision=0, step=100,
               file=("strokes", "chain")),
+    Parameter("broad_paint", "Broad Paint", "Where the finer layers' strokes go: 0 wherever the picture has "
+                                            "structure (its texture in fine strokes); 1 only where the broad "
+                                            "strokes missed the picture (an edge or a feature they stopped at or "
+                                            "crossed), so a fine texture stays in broad paint", 0.0, 1.0, 0.0,
+              file=("strokes", "broad")),
     Parameter("stroke_jitter", "Jitter", "How far each stroke's colour moves towards a neighbouring palette colour "
                                          "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3,
               file=("strokes", "jitter")),

@@ -292,8 +292,8 @@ def brush_for(settings):
     if settings.strokes <= 0:
         return None
     return Brush(width=settings.stroke_width, length=settings.stroke_length, layers=settings.stroke_layers,
-                 chain=settings.stroke_chain, jitter=settings.stroke_jitter, swirl=settings.swirl,
-                 strength=settings.strokes, seed=settings.seed,
+                 chain=settings.stroke_chain, broad=settings.broad_paint, jitter=settings.stroke_jitter,
+                 swirl=settings.swirl, strength=settings.strokes, seed=settings.seed,
                  fidelity=settings.fidelity if settings.noise_mapping == "tone" else 0.0)
 
 

@@ -197,6 +197,7 @@ class StylizeSettings:
     stroke_width: float = RUN["stroke_width"].default
     stroke_layers: int = RUN["stroke_layers"].default
     stroke_chain: int = RUN["stroke_chain"].default
+    broad_paint: float = RUN["broad_paint"].default
     stroke_jitter: float = RUN["stroke_jitter"].default
     swirl: float = RUN["swirl"].default
     stars: int = RUN["stars"].default              # stars in the picture's sky (cp_stylize.stars)

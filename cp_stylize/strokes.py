@@ -12,8 +12,9 @@ dab on the surface itself:
   so a dab crosses UV seams and islands unbroken;
 - **in layers**: the first covers the whole surface with dabs ``width`` wide;
   each next layer's dabs are :data:`LAYER_RATIO` times narrower and go only
-  where the colours at their scale differ from the layer before (detail and
-  edges);
+  where the paint laid so far differs from the picture's at their size, or
+  left it bare (Hertzmann's criterion: an edge or a feature the broad strokes
+  could not carry), not over a texture finer than both brushes;
 - **oriented** along the stroke field of its layer
   (:class:`~cp_stylize.stroke_field.StrokeField`):
   the picture's structure where it has some, else (with ``swirl``) the level
@@ -55,9 +56,15 @@ LAYER_RATIO = 1.8
 MIN_TEXELS = 3.0
 #: Dabs of the first layer cover each point of the surface about this many times.
 COVER = 2.0
-#: A finer layer's dab goes where its colour differs from the coarser layer's by more than this
-#: (OKLab distance; certainly at twice).
+#: A finer layer's dab goes where the colours change by more than :data:`DETAIL` across its width (the
+#: picture's structure: its edges and its texture; OKLab distance, certainly at twice) ...
 DETAIL = 0.025
+#: ... or, with a brush's ``broad`` paint, where the paint the coarser layers laid there differs from the
+#: paint's colours at the finer dabs' size by more than :data:`MISSED`, or where they left it bare:
+#: Hertzmann's finer brushes go where the canvas so far differs from the picture blurred to their size, so
+#: they carry an edge or a feature the broad strokes could not (where those stopped, or crossed it), and
+#: leave a texture finer than either brush to the broad paint.
+MISSED = 0.04
 #: Each dab's length varies by this share about the brush's.
 LENGTH_SPREAD = 0.12
 #: Each stroke's size (its dabs' length and width alike, so their shape stays) varies by this share about
@@ -83,7 +90,10 @@ class Brush:
     a dark, flat part keeps calm strokes); ``strength`` in [0, 1]: the dabs'
     opacity; ``seed``: the same seed places the same dabs; ``fidelity`` in
     [0, 1]: how much of the picture's own colours the run keeps (the
-    palette's pull on the jitter falls with it).
+    palette's pull on the jitter falls with it); ``broad`` in [0, 1]: where
+    the finer layers go, from wherever the picture has structure (0:
+    :data:`DETAIL`) to only where the broad paint missed the picture (1:
+    :data:`MISSED`).
     """
 
     width: float
@@ -95,6 +105,7 @@ class Brush:
     strength: float = 1.0
     seed: int = 0
     fidelity: float = 0.0
+    broad: float = 0.0
 
     def widths(self, texel):
         """The dab widths of the layers that can be drawn with texels ``texel`` long."""
@@ -194,8 +205,9 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     values : ndarray, shape (N, 3)
         The band's sRGB colours the dabs take theirs from (the filtered result).
     brush : Brush
-    structure : ndarray, shape (N, C), optional
-        Band values whose structure the dabs follow (default ``values``).
+    structure : ndarray, shape (N, 3), optional
+        The picture's colours on the band in OKLab, whose structure the dabs follow and by which they are
+        clipped (default ``values``'s).
     texel : float
         The atlas's texel length on the surface (layers too fine for it are left out).
     palette, weights : optional
@@ -217,7 +229,10 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     broad = StrokeField.layers(band, structure, [SWIRL_SIZE * brush.length])[0] if brush.swirl > 0 else None
     widths, lengths = brush.widths(texel), brush.lengths(texel)
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
-    parts = []
+    paint = to_oklab(values).astype(np.float32)
+    at_size = _at_sizes(band, paint, widths) if len(widths) > 1 and brush.broad > 0 else None  # at each size
+    clip_by = np.stack([structure[:, :3], paint], axis=1)     # what a dab is clipped by: the picture and its paint
+    parts, laid = [], []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
         links = chain_links(brush.chain, layer) if band.face is not None else 1
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
@@ -225,9 +240,15 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
         if layer > 0:
-            # finer dabs where the colours change by more than DETAIL across a dab's width
-            change = lines.strength_at(points) * width
-            chosen = rng.random(len(points)) < np.clip(change / DETAIL - 1.0, 0.0, 1.0)
+            # finer dabs where the colours change by more than DETAIL across a dab's width ...
+            chance = np.clip(lines.strength_at(points) * width / DETAIL - 1.0, 0.0, 1.0)
+            if brush.broad > 0:
+                # ... or where the paint laid so far differs from the paint's colours at their size (MISSED)
+                near = lines._nearest(points)
+                painted, bare = _painted(parts, laid, points, clip_by[near], at_size[layer][near])
+                missed = np.linalg.norm(painted - at_size[layer][near], axis=1) + 2.0 * MISSED * bare
+                chance = (1.0 - brush.broad) * chance + brush.broad * np.clip(missed / MISSED - 1.0, 0.0, 1.0)
+            chosen = rng.random(len(points)) < chance
             points, faces, bary = points[chosen], faces[chosen], bary[chosen]
         normals = mesh.normal(points, faces, bary)
         pieces = mesh.piece[faces]
@@ -256,10 +277,74 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
         first, second = loaded(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
+        if at_size is not None and layer + 1 < len(widths):
+            # the picture and its paint at its centre (what it is clipped by), and the paint at its size
+            # (the mean it picks up)
+            near = lines._nearest(points)
+            laid.append((clip_by[near], at_size[layer][near]))
         parts.append(Dabs(points, normals, direction, length, width, first,
                           pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend,
                           np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends, second))
     return Dabs.concatenate(parts)
+
+
+def _at_sizes(band, values, widths):
+    """The band's ``values`` (N, C) at the size of dabs ``widths`` wide, broad to fine: smoothed by a
+    Gaussian of half the width on the surface (its grids shared from each size to the next)."""
+    from .smoothing import GridGaussian, taper
+
+    rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
+    found, smoothing = [], None
+    for width in widths:
+        rho = 0.5 * (0.5 * width) ** 2
+        smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
+                     else smoothing.at_time(rho))
+        found.append(smoothing(rows).T)
+    return found
+
+
+def _painted(parts, laid, points, under, base):
+    """What the dabs laid so far leave at surface ``points`` (M, 3), as :func:`cp_stylize.canvas.paint` lays
+    them, and how much of the canvas they leave bare there (M,).
+
+    ``parts``: the layers' :class:`Dabs`, in painting order; ``laid``: for each, the colours each dab is
+    clipped by (n, k, 3: the picture and its paint at its centre) and the colour it paints (n, 3: the
+    paint's colours at its size, as it picks up their mean).  A dab covers the points inside its footprint,
+    less where their colours ``under`` (M, k, 3) differ from its own (:func:`cp_stylize.canvas.clipped`),
+    the last on top, over ``base`` (M, 3)."""
+    from scipy.spatial import cKDTree
+
+    from .canvas import _half_width, _over, clipped
+
+    dabs = Dabs.concatenate(parts)
+    centre, colour = (np.concatenate(c) for c in zip(*laid))
+    half = 0.5 * dabs.length
+    found = cKDTree(points).query_ball_point(dabs.centre, half, return_sorted=False)
+    counts = np.fromiter((len(f) for f in found), dtype=np.int64, count=len(found))
+    if not counts.sum():
+        return np.asarray(base, dtype=np.float64), np.ones(len(points))
+    i = np.repeat(np.arange(len(dabs)), counts)
+    j = np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
+    delta = points[j] - dabs.centre[i]
+    a = np.einsum("ij,ij->i", delta, dabs.direction[i]) / half[i]
+    v = np.einsum("ij,ij->i", delta, np.cross(dabs.normal[i], dabs.direction[i]))
+    if dabs.bend is not None:
+        v -= 0.5 * dabs.bend[i] * (a * half[i]) ** 2
+    inside = (np.abs(a) <= 1.0) & (np.abs(v) <= 0.5 * dabs.width[i] * _half_width(np.clip(a, -1.0, 1.0)))
+    i, j = i[inside], j[inside]
+    alpha = clipped(np.linalg.norm(under[j] - centre[i], axis=2).max(axis=1))
+    order = np.lexsort((-i, j))                       # per point, the last dab first
+    i, j, alpha = i[order], j[order], alpha[order]
+    out, bare = np.array(base, dtype=np.float64), np.ones(len(points))
+    if not len(i):
+        return out, bare
+    heads = np.flatnonzero(np.r_[True, j[1:] != j[:-1]])
+    through, shown = _over(alpha, heads)
+    weight = alpha * shown
+    added = np.column_stack([np.add.reduceat(weight * colour[i, c], heads) for c in range(3)])
+    out[j[heads]] = out[j[heads]] * through[:, None] + added
+    bare[j[heads]] = through
+    return out, bare
 
 
 #: Where the picture has no structure, a dab turns by up to this angle (radians) from the field, at random.

@@ -110,7 +110,7 @@ ENTRY = '"#rrggbb", [r, g, b] or ["#rrggbb", weight] (r, g, b in [0, 1], a weigh
     ('mode = "ced"\n[noise]\nmapping = "tone"\nspread = -1\npalette = ["#102040"]',
      "[noise] spread must lie in [0, 1], got -1"),
     ('mode = "ced"\n[strokes]\nlenght = 0.1', "unknown key(s) ['lenght'] in [strokes]; known: strength, length, "
-                                              "width, layers, chain, jitter, swirl, stars, relief, sheen"),
+                                              "width, layers, chain, broad, jitter, swirl, stars, relief, sheen"),
     ('mode = "ced"\n[strokes]\nwidth = 0.5\n[noise]\npalette = ["#102040"]',
      "[strokes] width must lie in [0.003, 0.2], got 0.5"),
     ('mode = "ced"\n[strokes]\nlayers = 2.5', "[strokes] layers must be a whole number in [1, 4], got 2.5"),
@@ -161,8 +161,8 @@ WRONG_TYPES = [
     ('[noise]\npalette = [["#ff0000", "heavy"]]', f"[noise] palette entry 1 must be {ENTRY}, got ['#ff0000', 'heavy']"),
     ('[noise]\npalette = [[0.5, 2.0, 0.0]]', f"[noise] palette entry 1 must be {ENTRY}, got [0.5, 2.0, 0.0]"),
     ('[noise]\npalette = [5]', f"[noise] palette entry 1 must be {ENTRY}, got 5"),
-    ('strokes = [1]', "strokes must be a table ([strokes] with strength, length, width, layers, chain, jitter, swirl, "
-                      "stars, relief, sheen), got [1]"),
+    ('strokes = [1]', "strokes must be a table ([strokes] with strength, length, width, layers, chain, broad, jitter, "
+                      "swirl, stars, relief, sheen), got [1]"),
     ('[strokes]\nstrength = "full"', "[strokes] strength must lie in [0, 1], got 'full'"),
     ('[strokes]\nlength = [0.1]', "[strokes] length must lie in [0.01, 1], got [0.1]"),
     ('[strokes]\nwidth = false', "[strokes] width must lie in [0.003, 0.2], got False"),

@@ -270,6 +270,22 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     assert ramp.sum() > 2 and height[ramp].min() < rim.min()
 
 
+def test_finer_dabs_go_to_an_edge_the_broad_ones_cannot_carry_not_over_a_texture_finer_than_both(sphere):
+    mesh, band, atlas, texels = sphere
+    colours = 0.5 + 0.25 * (_stripes(band, [0, 0, 1]) - 0.5)   # faint stripes 0.16 apart: finer than either brush
+    y = band.cp[:, 1]
+    colours[y > 0.3] = 0.1                                    # and one edge, at y = 0.3
+    brush = Brush(width=0.3, length=1.2, layers=2, seed=3, broad=1.0)
+    dabs = place_dabs(mesh, band, colours, brush, texel=float(np.median(texels.lengths)))
+    fine, at = dabs.layer == 1, dabs.centre[:, 1]
+    edge, striped = np.abs(at - 0.3) < 0.2, at < -0.3
+    density = [np.sum(fine & where) / np.sum(region) for where, region in ((edge, np.abs(y - 0.3) < 0.2),
+                                                                          (striped, y < -0.3))]
+    assert np.sum(fine & edge) >= 10
+    assert density[0] > 3 * density[1]              # finer strokes crowd at the edge ...
+    assert np.sum(fine & striped) < 0.5 * np.sum(~fine & striped)   # ... and leave the faint stripes to broad paint
+
+
 def test_a_finer_layers_paint_is_thinner_and_lies_on_the_broad_paint_under_it(sphere):
     mesh, band, atlas, texels = sphere
     broad = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)     # 16 texels wide
@@ -405,13 +421,30 @@ def test_a_strokes_last_dab_runs_dry_along_its_bristles_and_the_others_do_not(sp
     assert dry.min() < 0.3 and dry.max() > 0.8                        # the stroke's end breaks up: gaps and paint
 
 
+def test_a_dab_stops_where_the_picture_or_its_paint_changes(sphere):
+    mesh, band, atlas, texels = sphere
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.3, 0.3, 0.3))
+    base = np.zeros((len(texels.points), 3))
+    grey = np.full_like(base, 0.3)
+    marking = texels.points[:, 0] > 0.0          # a road's marking: a little lighter, in the palette's yellow
+    picture, paint_of = grey.copy(), grey.copy()
+    picture[marking], paint_of[marking] = 0.36, [0.95, 0.8, 0.1]
+    covered = (texels.points[:, 1] < -0.9) & (np.abs(texels.points[:, 2]) < 0.15) & (np.abs(texels.points[:, 0]) < 0.15)
+    alone, _ = paint(dab, texels, base, picture)                       # by the picture alone: painted over
+    both, _ = paint(dab, texels, base, np.hstack([picture, paint_of]), source=np.array([[0.3, 0.3, 0.3] * 2]))
+    left, right = covered & (texels.points[:, 0] < -0.05), covered & (texels.points[:, 0] > 0.05)
+    assert alone[right, 0].min() > 0.25
+    assert both[right].max() == 0.0 and both[left, 0].min() > 0.25     # stopped at the marking, whole elsewhere
+    assert canvas.clipped(canvas.CLIP) == 1.0 and canvas.clipped(canvas.CLIP_GONE) == 0.0
+
+
 def test_a_loaded_brush_lays_its_second_colour_along_one_side_in_streaks(sphere):
     mesh, band, atlas, texels = sphere
     dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(1.0, 0.0, 0.0))
     dab.second = np.array([[0.0, 0.0, 1.0]])
     dab.phase = np.array([0.3])
     base = np.zeros((len(texels.points), 3))
-    out, _ = paint(dab, texels, base, np.tile([[0.5, 0.0, 0.5]], (len(base), 1)))
+    out, _ = paint(dab, texels, base, np.tile([[0.9, 0.0, 0.2]], (len(base), 1)))
     front = texels.points[:, 1] < -0.5
     body = front & (np.abs(texels.points[:, 2]) < 0.1) & (np.abs(texels.points[:, 0]) < 0.15)
     blue = out[body, 2] / np.maximum(out[body, 0] + out[body, 2], 1e-9)

@@ -204,8 +204,8 @@ class VIEW3D_PT_cp_stylize_paint(_Sidebar, bpy.types.Panel):
         settings = context.scene.cp_stylize
         layout = _split(self.layout)
         _switched(layout, settings, "strokes", [("stroke_width", "Width"), ("stroke_length", "Length"),
-                                                "stroke_layers", "stroke_chain", "stroke_jitter", "swirl", "stars",
-                                                "relief", "sheen"])
+                                                "stroke_layers", "stroke_chain", "broad_paint", "stroke_jitter",
+                                                "swirl", "stars", "relief", "sheen"])
         layout.prop(settings, "contours")
 
 
