@@ -229,9 +229,11 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     broad = StrokeField.layers(band, structure, [SWIRL_SIZE * brush.length])[0] if brush.swirl > 0 else None
     widths, lengths = brush.widths(texel), brush.lengths(texel)
     fields = StrokeField.layers(band, structure, lengths) if fields is None else fields
-    paint = to_oklab(values).astype(np.float32)
-    at_size = _at_sizes(band, paint, widths) if len(widths) > 1 and brush.broad > 0 else None  # at each size
-    clip_by = np.stack([structure[:, :3], paint], axis=1)     # what a dab is clipped by: the picture and its paint
+    at_size = clip_by = None
+    if len(widths) > 1 and brush.broad > 0:
+        paint = to_oklab(values).astype(np.float32)
+        at_size = _at_sizes(band, paint, widths)                    # the paint's colours at each layer's size
+        clip_by = np.stack([structure[:, :3], paint], axis=1)      # what a dab is clipped by: the picture, its paint
     parts, laid = [], []
     for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
         links = chain_links(brush.chain, layer) if band.face is not None else 1
@@ -242,7 +244,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         if layer > 0:
             # finer dabs where the colours change by more than DETAIL across a dab's width ...
             chance = np.clip(lines.strength_at(points) * width / DETAIL - 1.0, 0.0, 1.0)
-            if brush.broad > 0:
+            if at_size is not None:
                 # ... or where the paint laid so far differs from the paint's colours at their size (MISSED)
                 near = lines._nearest(points)
                 painted, bare = _painted(parts, laid, points, clip_by[near], at_size[layer][near])
