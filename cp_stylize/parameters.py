@@ -142,7 +142,8 @@ RUN = {p.name: p for p in (
                                          "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3,
               file=("strokes", "jitter")),
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
-                                "(0: they follow the picture alone)", 0.0, 1.0, 0.0,
+                                "(0: they run level with the picture's horizon there; from 0.5 none run level)",
+              0.0, 1.0, 0.0,
               file=("strokes", "swirl")),
     Parameter("stars", "Stars", "Up to this many stars in the picture's sky (its light, calm parts), as in van "
                                 "Gogh's \"The Starry Night\" (1889): a bright core ringed by halos of strokes that "

@@ -49,7 +49,7 @@ from .palette import map_to_palette, palette_noise
 from .shading import EDGE_DEPTH, LIGHT_DEPTH, FormShading, shaded
 from .seams import SeamHealing, seam_edges
 from .parameters import AXIS_DIRECTIONS, DIRECTED_MODES
-from .stroke_field import form_field, level_field, sample_directions
+from .stroke_field import form_field, level_field, level_share, sample_directions
 from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
 
@@ -333,8 +333,9 @@ def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours
     :class:`ColourInput` and ``source(faces, barys)``, the picture at points of the mesh."""
     brush = brush_for(settings)
     level = None
-    if brush is not None and colours.textures:           # flat parts of a picture: level strokes
-        level = level_field(band, field, picture_level(mesh, colours))
+    share = level_share(settings.swirl)
+    if brush is not None and colours.textures and share > 0:     # flat parts of a picture: level strokes
+        level = share * level_field(band, field, picture_level(mesh, colours))
     return painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                     palette=settings.palette or None, weights=settings.palette_weights or None, field=field,
                     recolour=_recolour(settings), level=level, detail=settings.detail, source=source,

@@ -14,7 +14,7 @@ import numpy as np
 
 from .smoothing import GridGaussian, taper
 
-__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "sample_directions", "FALLBACK_TRUST"]
+__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "level_share", "sample_directions", "FALLBACK_TRUST"]
 
 class Swirls:
     """Swirling directions on any surface: the rotated surface gradient ``n x grad phi`` of a smooth
@@ -85,9 +85,9 @@ class StrokeField:
         by ``swirl`` where the structure is weak, with the ``broad`` field (the same structure over a
         wide neighbourhood: its level lines ring a bright or dark patch, as van Gogh's strokes ring
         his stars) and, where that is weak too, with ``swirls``.  ``swirl`` is a number or one
-        for each point (M,).  Before the swirls, a ``level`` field (N, 3: unit, or 0 where it has no
-        direction; see :func:`level_field`) takes over where the structure is weak
-        (:data:`LEVEL_YIELD`)."""
+        for each point (M,).  Before the swirls, a ``level`` field (N, 3: 0 where it has no direction;
+        see :func:`level_field`) takes over where the structure is weak (:data:`LEVEL_YIELD`), as far as
+        its length (at most 1) says."""
         nearest = self._nearest(points)
         direction = _tangent(self.direction[nearest].astype(np.float64), normals)
         none = np.linalg.norm(direction, axis=1) < 0.5
@@ -107,10 +107,13 @@ class StrokeField:
             trust = np.where(trust > 0, 1.0 - fallback * np.sqrt(confidence), 0.0)
             direction = _blend(given, direction, trust, normals)
         if level is not None:
-            flat = _tangent(np.asarray(level[nearest], dtype=np.float64), normals)
-            has = np.linalg.norm(flat, axis=1) > 0.5
+            raw = np.asarray(level[nearest], dtype=np.float64)
+            share = np.clip(np.linalg.norm(raw, axis=1), 0.0, 1.0)          # how far it may take over
+            flat = _tangent(raw, normals)
+            has = (share > 1e-3) & (np.linalg.norm(flat, axis=1) > 0.5)
             flat[~has] = direction[~has]
-            direction = _blend(direction, flat, np.where(has, confidence**LEVEL_YIELD, 1.0), normals)
+            yielded = 1.0 - share * (1.0 - confidence**LEVEL_YIELD)
+            direction = _blend(direction, flat, np.where(has, yielded, 1.0), normals)
         swirl = np.broadcast_to(np.asarray(swirl, dtype=np.float64), (len(points),))
         if swirl.any() and (broad is not None or swirls is not None):
             if broad is not None:
@@ -133,6 +136,16 @@ FALLBACK_TRUST = 0.5
 #: Where the picture's structure is weak, strokes turn to a ``level`` field (:meth:`StrokeField.at`) by 1 less the
 #: confidence in the structure to this power: a faint grain of asphalt does not keep its whorls.
 LEVEL_YIELD = 1.0
+#: A brush that swirls lays no level strokes: where the picture has no structure of its own, its strokes
+#: circle in swirls (where the picture is light) or turn each its own way (where it is dark), as van Gogh's
+#: do, instead of combing the ground flat.  The level field's share (:func:`level_share`) falls from all of
+#: it at Swirl 0 to none at this Swirl.
+LEVEL_SWIRL = 0.5
+
+
+def level_share(swirl):
+    """How far the :func:`level_field` takes over (0 to 1) for a brush of ``swirl`` (:data:`LEVEL_SWIRL`)."""
+    return float(np.clip(1.0 - swirl / LEVEL_SWIRL, 0.0, 1.0))
 
 
 def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):

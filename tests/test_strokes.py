@@ -488,6 +488,28 @@ def test_flat_parts_of_the_picture_take_level_strokes_and_its_structure_keeps_it
     assert np.median(np.abs(sure.direction[near, 2])) < 0.2
 
 
+def test_a_swirling_brush_lays_no_level_strokes_and_the_level_yields_as_swirl_grows(sphere):
+    from cp_stylize.stroke_field import LEVEL_SWIRL, level_field, level_share
+
+    assert level_share(0.0) == 1.0 and level_share(0.5 * LEVEL_SWIRL) == 0.5 and level_share(0.6) == 0.0
+    mesh, band, _, _ = sphere
+    centres = np.asarray(mesh.vertices)[np.asarray(mesh.input_faces)].mean(axis=1)
+    level = np.cross([0.0, 0.0, 1.0], centres)          # the picture's horizontal: along the parallels
+    field = level_field(band, None, level)
+    brush = Brush(width=0.12, length=0.48, layers=1, chain=1, seed=3)
+    grey = np.full((band.size, 3), 0.4, dtype=np.float32)           # no structure anywhere
+
+    def along_level(share):
+        dabs = place_dabs(mesh, band, grey, brush, texel=0.01, level=share * field)
+        near = np.abs(dabs.centre[:, 2]) < 0.5
+        parallels = np.cross([0.0, 0.0, 1.0], dabs.centre[near])
+        parallels /= np.linalg.norm(parallels, axis=1, keepdims=True)
+        return np.median(np.abs(np.einsum("ij,ij->i", dabs.direction[near], parallels)))
+
+    full, half, none = along_level(1.0), along_level(0.5), along_level(0.0)
+    assert full > 0.9 and none < 0.8 and none < half < full
+
+
 def test_the_pictures_horizontal_is_its_u_axis_on_each_face():
     from cp_stylize.sampling import ColourInput, Texture, picture_level
 
