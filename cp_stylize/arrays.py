@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_points", "check_uvs", "count", "unit_rows", "aligned", "expand_runs", "split_counts", "smooth_step", "before"]
+__all__ = ["as_points", "check_uvs", "count", "unit_rows", "aligned", "expand_runs", "ball_pairs", "split_counts", "smooth_step", "before"]
 
 
 def as_points(x, name="points"):
@@ -65,6 +65,16 @@ def expand_runs(counts):
     run = np.repeat(np.arange(len(counts)), counts)
     start = np.cumsum(counts) - counts
     return run, np.arange(len(run)) - start[run]
+
+
+def ball_pairs(tree, centres, radii):
+    """Pairs ``(i, j)`` of every point ``j`` of a k-d ``tree`` (SciPy's ``cKDTree``) within ``radii`` (a number
+    or one for each) of ``centres[i]`` (n, 3), as two int64 arrays."""
+    found = tree.query_ball_point(centres, radii, return_sorted=False)
+    counts = np.fromiter((len(f) for f in found), np.int64, len(found))
+    if not counts.sum():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.repeat(np.arange(len(found)), counts), np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
 
 
 def split_counts(counts, budget):

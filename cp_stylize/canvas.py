@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .arrays import expand_runs, smooth_step
+from .arrays import ball_pairs, expand_runs, smooth_step
 from .oklab import from_oklab, to_oklab
 from .palette import kept_chroma, loaded
 from .raster import face_map
@@ -336,12 +336,9 @@ def _ball_pairs(dabs, texels, which):
     if not len(which):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     margin = 2.0 * float(np.median(texels.lengths))
-    found = texels.tree.query_ball_point(dabs.centre[which], np.maximum(0.5 * dabs.length[which], dabs.width[which])
-                                         + dabs.depth[which] + margin, return_sorted=False)
-    counts = np.fromiter((len(f) for f in found), np.int64, len(found))
-    if not counts.sum():
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.repeat(which, counts), np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
+    i, j = ball_pairs(texels.tree, dabs.centre[which], np.maximum(0.5 * dabs.length[which], dabs.width[which])
+                      + dabs.depth[which] + margin)
+    return which[i], j
 
 
 def _half_width(along):

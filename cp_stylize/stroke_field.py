@@ -14,7 +14,20 @@ import numpy as np
 
 from .smoothing import GridGaussian, taper
 
-__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "level_share", "sample_directions", "FALLBACK_TRUST"]
+__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "level_share", "sample_directions", "size_smoothings",
+           "FALLBACK_TRUST"]
+
+def size_smoothings(band, sizes):
+    """Gaussians on the band (:class:`~cp_stylize.smoothing.GridGaussian`, tapered off the surface), one for
+    each dab size of ``sizes`` (broad to fine), of deviation half the size; each shares the grids of the one
+    before it."""
+    smoothing = None
+    for size in sizes:
+        rho = 0.5 * (0.5 * size) ** 2
+        smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
+                     else smoothing.at_time(rho))
+        yield smoothing
+
 
 class Swirls:
     """Swirling directions on any surface: the rotated surface gradient ``n x grad phi`` of a smooth
@@ -65,11 +78,8 @@ class StrokeField:
         rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
         J = products(rows, grid_gradients(band, np.float32))
         q0, q1 = np.ascontiguousarray(tangent_basis(band).transpose(2, 1, 0), dtype=np.float32)
-        fields, smoothing = [], None
-        for length in lengths:
-            rho = 0.5 * (0.5 * length) ** 2
-            smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
-                         else smoothing.at_time(rho))
+        fields = []
+        for smoothing in size_smoothings(band, lengths):
             direction, mu1, coherence = along_structure(smoothing(J), q0, q1)
             strength = np.sqrt(np.maximum(mu1, 0.0))
             # a structure counts where it is coherent and among the stronger of the surface's

@@ -42,11 +42,11 @@ import dataclasses
 
 import numpy as np
 
-from .arrays import aligned
+from .arrays import aligned, ball_pairs
 from .canvas import DAB_AREA, HEAD_END, TAIL_END
 from .oklab import to_oklab
 from .palette import check_palette, loaded
-from .stroke_field import StrokeField, Swirls
+from .stroke_field import StrokeField, Swirls, size_smoothings
 
 __all__ = ["Brush", "Dabs", "place_dabs", "chain_links", "LAYER_RATIO"]
 
@@ -292,17 +292,9 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
 
 def _at_sizes(band, values, widths):
     """The band's ``values`` (N, C) at the size of dabs ``widths`` wide, broad to fine: smoothed by a
-    Gaussian of half the width on the surface (its grids shared from each size to the next)."""
-    from .smoothing import GridGaussian, taper
-
+    Gaussian of half the width on the surface (:func:`~cp_stylize.stroke_field.size_smoothings`)."""
     rows = np.ascontiguousarray(np.asarray(values, dtype=np.float32).reshape(band.size, -1).T)
-    found, smoothing = [], None
-    for width in widths:
-        rho = 0.5 * (0.5 * width) ** 2
-        smoothing = (GridGaussian(band, rho, weights=taper(band.dist, 3.0 * band.h)) if smoothing is None
-                     else smoothing.at_time(rho))
-        found.append(smoothing(rows).T)
-    return found
+    return [smoothing(rows).T for smoothing in size_smoothings(band, widths)]
 
 
 def _painted(parts, laid, points, under, base):
@@ -321,12 +313,7 @@ def _painted(parts, laid, points, under, base):
     dabs = Dabs.concatenate(parts)
     centre, colour = (np.concatenate(c) for c in zip(*laid))
     half = 0.5 * dabs.length
-    found = cKDTree(points).query_ball_point(dabs.centre, half, return_sorted=False)
-    counts = np.fromiter((len(f) for f in found), dtype=np.int64, count=len(found))
-    if not counts.sum():
-        return np.asarray(base, dtype=np.float64), np.ones(len(points))
-    i = np.repeat(np.arange(len(dabs)), counts)
-    j = np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
+    i, j = ball_pairs(cKDTree(points), dabs.centre, half)
     delta = points[j] - dabs.centre[i]
     a = np.einsum("ij,ij->i", delta, dabs.direction[i]) / half[i]
     v = np.einsum("ij,ij->i", delta, np.cross(dabs.normal[i], dabs.direction[i]))
