@@ -32,6 +32,12 @@ splits where a tone crosses from one colour to the next).  ``fidelity``
 then leads back to the picture's own colours: from 0 to 0.5 its hues turn
 back (at 0.5 the picture's hues in the palette's tones and chroma), from 0.5
 to 1 its lightness and chroma (at 1 the picture's colours).
+
+``hue_snap`` turns the hues fidelity brings back to the palette's nearest (a
+soft choice among the palette's hued colours, :data:`SNAP_SHARP`), each at
+the chroma the palette gives its hue family: at 1 a photograph's grey-blue
+sky takes a painting's pale blue-green, where its own hue would be a lilac
+the painting never had, and a brown the palette's orange and sienna.
 """
 
 from __future__ import annotations
@@ -84,6 +90,9 @@ CHROMA_KEEP = 2.0
 #: a muted colour in the painting, what is coloured as a strong one.
 MUTED = 0.7
 VIVID = 0.08
+#: How sharply ``hue_snap`` chooses the palette's hues nearest a colour's (the fit's exponent per unit of
+#: 1 - cos of the hue difference: a palette hue 40 degrees off counts a hundredth of one that matches).
+SNAP_SHARP = 20.0
 #: Colours mapped at once.
 _CHUNK = 1 << 16
 
@@ -133,7 +142,7 @@ def tone_ranks(lightness):
     return np.interp(lightness, np.linspace(0.0, 1.0, TONE_BINS + 1), edges)
 
 
-def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=0.0):
+def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=0.0, hue_snap=0.0):
     """The colours (M, 3) mapped onto a palette by tone and hue (see the module's notes).
 
     Parameters
@@ -150,6 +159,9 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     keep_values : float in [0, 1]
         How much of the picture's own lightness is kept: 0 its tones spread
         over the palette's by rank, 1 its lightness (within the palette's).
+    hue_snap : float in [0, 1]
+        How far the hues fidelity brings back turn to the palette's nearest
+        hues: 0 the picture's own, 1 the palette's.
 
     Returns
     -------
@@ -162,6 +174,8 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
         raise ValueError(f"fidelity must lie in [0, 1], got {fidelity!r}")
     if not 0.0 <= keep_values <= 1.0:
         raise ValueError(f"keep_values must lie in [0, 1], got {keep_values!r}")
+    if not 0.0 <= hue_snap <= 1.0:
+        raise ValueError(f"hue_snap must lie in [0, 1], got {hue_snap!r}")
     palette, weights = check_palette(palette, weights)
     lab_palette = to_oklab(palette)
     order = np.argsort(lab_palette[:, 0], kind="stable")          # darkest first
@@ -175,7 +189,8 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
 
     def chunk(s):
         part = slice(s, s + _CHUNK)
-        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity, keep_values)
+        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity, keep_values,
+                            hue_snap)
 
     map_parallel(chunk, range(0, len(colours), _CHUNK))
     result = colours.astype(np.float32, copy=True)
@@ -183,7 +198,7 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     return result
 
 
-def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values):
+def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hue_snap=0.0):
     """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
@@ -216,10 +231,32 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values):
     turn = (min(1.0, 2.0 * fidelity) * np.clip(chroma / (TURN_GREY * GREY), 0.0, 1.0))[:, None]
     mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
     own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
+    if hue_snap > 0:
+        own_hue, mix_chroma = _snapped(own_hue, cos, mix_chroma, lab_palette, palette_chroma, palette_hued, hue_snap)
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
     ab *= (MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0))[:, None]    # a grey stays a muted colour
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
-    return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * lab[:, 1:]])
+    own_ab = own_hue * chroma[:, None] if hue_snap > 0 else lab[:, 1:]
+    return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * own_ab])
+
+
+def _snapped(own_hue, cos, mix_chroma, lab_palette, palette_chroma, palette_hued, hue_snap):
+    """The unit hues ``own_hue`` (M, 2) turned ``hue_snap`` of the way to the palette's nearest hues, and the
+    chroma ``mix_chroma`` (M, 1) (that of the palette colours of the colour's tone) turned as far to the chroma
+    the palette gives those hues: their mean weighted by chroma, so that the strongest of like hues counts most
+    (a yellow takes the palette's chrome yellow, not the mean of it and its pale lemon; a brown its orange
+    and sienna, not the dull chroma of a blue-green that shares its tone).  ``cos`` (M, K): the cosines of the
+    hue differences to the palette colours, of which only the ``palette_hued`` (K,) have a hue."""
+    near = palette_hued[None, :] * np.exp(-SNAP_SHARP * (1.0 - cos))
+    palette_hue = lab_palette[:, 1:] / np.maximum(palette_chroma, 1e-12)[:, None]
+    hue = (1.0 - hue_snap) * own_hue + hue_snap * _unit(near @ palette_hue)
+    chroma = near @ (palette_chroma**2)[:, None] / np.maximum(near @ palette_chroma[:, None], 1e-12)
+    return _unit(hue), (1.0 - hue_snap) * mix_chroma + hue_snap * chroma
+
+
+def _unit(ab):
+    """The rows of ``ab`` (M, 2) scaled to unit length (a zero row stays zero)."""
+    return ab / np.maximum(np.hypot(ab[:, 0], ab[:, 1]), 1e-12)[:, None]
 
 
 def kept_chroma(ab, chroma):

@@ -158,6 +158,11 @@ RUN = {p.name: p for p in (
                                             "its weight's share), 1 keeps the picture's lightness and lets the "
                                             "palette choose hue and chroma", 0.0, 1.0, 0.0,
               file=("noise", "keep_values")),
+    Parameter("hue_snap", "Palette Hues", "How far the hues Fidelity brings back turn to the palette's nearest "
+                                          "hues: 0 the picture's own hues, 1 the palette's (a grey-blue sky takes "
+                                          "the palette's blue-green, not a lilac the palette lacks; at Fidelity 1, "
+                                          "the picture's lightness and chroma in the palette's hues)", 0.0, 1.0, 0.0,
+              file=("noise", "hue_snap")),
     Parameter("contours", "Contours", "Dark lines along the picture's strong edges, drawn on the surface, this "
                                       "strong (0: none)", 0.0, 1.0, 0.0,
               file=(None, "contours")),

@@ -283,7 +283,8 @@ def _recolour(settings):
 
     def recolour(picture):
         return map_to_palette(picture, settings.palette, settings.palette_weights or None,
-                              fidelity=settings.fidelity, keep_values=settings.keep_values)
+                              fidelity=settings.fidelity, keep_values=settings.keep_values,
+                              hue_snap=settings.hue_snap)
     return recolour
 
 

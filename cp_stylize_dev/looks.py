@@ -363,7 +363,7 @@ def run(out_dir="looks_out", *, size=1024, presets=PAINTERLY, oil=True, toon=Tru
             if result.height is not None:
                 height = result.height / max(float(result.height.max()), 1e-12)
                 write_png(os.path.join(out_dir, f"{subject_name}_{name}_relief.png"), height[..., None])
-            half = _run(subject, settings.replace(fidelity=0.5), size)
+            half = _run(subject, settings.replace(fidelity=0.5, hue_snap=0.0), size)
             scale_px = 0.5 * settings.stroke_width / texel
             hue, counted = hue_difference(half.image, source.image, mask)
             dabs, texels = _dabs(subject, settings, result)

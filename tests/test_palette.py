@@ -84,6 +84,30 @@ def test_fidelity_leads_back_to_the_picture():
     assert np.median(hue_difference(to_oklab(none[saturated]), to_oklab(picture[saturated]))) > 40
 
 
+def test_palette_hues_turn_the_pictures_hues_to_the_palettes_nearest():
+    """With Palette Hues at 1, the hues Fidelity brings back are the palette's: a grey-blue sky, between a warm
+    palette's blue-green and its yellows, takes the blue-green (at no more than the palette's chroma for it)
+    rather than its own hue, a lilac the palette lacks; a yellow stays yellow; at 0 the picture's hues return."""
+    palette = _rgb(["#3b2412", "#3f5a26", "#5f9c8e", "#d99a2b", "#f0b81c", "#f9eaa0", "#9cc9b8"])
+    lab_palette = to_oklab(palette)
+    sky = np.tile([[0.55, 0.6, 0.75]], (400, 1)) + np.random.default_rng(2).normal(0, 0.01, (400, 3))
+    picture = np.clip(np.concatenate([sky, np.tile([[0.8, 0.7, 0.2]], (400, 1)), np.linspace(0, 1, 400)[:, None]
+                                      * np.ones((1, 3))]), 0, 1)
+    own = map_to_palette(picture, palette, fidelity=0.55)
+    snapped = map_to_palette(picture, palette, fidelity=0.55, hue_snap=1.0)
+    to_sky = hue_difference(to_oklab(snapped[:400]), np.tile(lab_palette[2], (400, 1)))
+    assert np.median(to_sky) < 10                                                 # the palette's blue-green
+    assert np.median(hue_difference(to_oklab(own[:400]), to_oklab(picture[:400]))) < 10   # unsnapped: its own
+    assert np.median(hue_difference(to_oklab(own[:400]), np.tile(lab_palette[2], (400, 1)))) > 45
+    chroma = np.hypot(*to_oklab(snapped[:400])[:, 1:].T)
+    assert np.max(chroma) <= np.hypot(*lab_palette[[2, 6], 1:].T).max() + 1e-3   # no brighter than the palette's
+    yellow = to_oklab(snapped[400:800])
+    assert np.median(hue_difference(yellow, np.tile(lab_palette[4], (400, 1)))) < 15
+    np.testing.assert_allclose(map_to_palette(picture, palette, fidelity=0.55, hue_snap=0.0), own)
+    with pytest.raises(ValueError, match=r"hue_snap must lie in \[0, 1\], got 3"):
+        map_to_palette(picture, palette, hue_snap=3)
+
+
 def test_values_keep_the_pictures_own_light_and_dark():
     """With Keep Values at 1, a dark picture stays dark and a pale one pale, whatever share of the tones the
     weights give the palette's colours; at 0 the tones are spread over the palette by rank."""

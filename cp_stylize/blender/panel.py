@@ -268,7 +268,7 @@ class VIEW3D_PT_cp_stylize_palette(_Closed, bpy.types.Panel):
         layout = _split(self.layout)
         layout.prop(settings, "noise_mapping")
         if settings.noise_mapping == "tone":
-            layout.prop(settings, "fidelity")
+            _switched(layout, settings, "fidelity", ["hue_snap"])
             layout.prop(settings, "keep_values")
         layout.prop(settings, "noise_fraction")
         if settings.noise_mapping == "tone":

@@ -227,10 +227,18 @@ def scenario_panel():
     yield 1.5
     screenshot("panel_hand_painted", sidebar)
     facts["hand_painted"] = {name: getattr(settings, name) for name in ("shade_light", "shade_edges", "shade_warmth")}
-    # the Output sub-panel, with the Hand-Painted Light and Palette sub-panels out of the way too: its limits'
-    # labels whole at the sidebar's width
-    for cls in (panels.VIEW3D_PT_cp_stylize_shading, panels.VIEW3D_PT_cp_stylize_palette):
-        bpy.utils.unregister_class(cls)
+    # the Sunflower Vase preset, with the Hand-Painted Light sub-panel out of the way too: the Palette
+    # sub-panel's mapping by tone and hue, its Fidelity and the Palette Hues under it
+    in_view3d(bpy.ops.cp_stylize.preset_load, name="sunflower_vase")
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_shading)
+    area.tag_redraw()
+    yield 1.5
+    screenshot("panel_palette", sidebar)
+    facts["palette"] = {"fidelity": settings.fidelity, "hue_snap": settings.hue_snap,
+                        "label": settings.bl_rna.properties["hue_snap"].name}
+    # the Output sub-panel, with the Palette sub-panel out of the way too: its limits' labels whole at the
+    # sidebar's width
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_palette)
     area.tag_redraw()
     yield 1.5
     screenshot("panel_output", sidebar)

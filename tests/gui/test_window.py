@@ -101,6 +101,10 @@ def test_the_sidebar_tab_draws_every_panel_for_every_mode(screenshots, extension
     assert facts["hand_painted"] == {"shade_light": pytest.approx(hand.shade_light),
                                      "shade_edges": pytest.approx(hand.shade_edges),
                                      "shade_warmth": pytest.approx(hand.shade_warmth)}
+    assert os.path.getsize(facts["screenshots"]["panel_palette_crop"]) > 10_000
+    sunflower = load_preset("sunflower_vase")
+    assert facts["palette"] == {"fidelity": pytest.approx(sunflower.fidelity), "hue_snap": pytest.approx(1.0),
+                                "label": "Palette Hues"}
     # the Output sub-panel drawn with its limits, each label short enough for the sidebar's default width
     assert facts["output_labels"] == ["Max RAM (GiB)", "Max Time (min)"]
     assert os.path.getsize(facts["screenshots"]["panel_output_crop"]) > 10_000
