@@ -155,6 +155,17 @@ def stylize_and_watch(act_at=None, action=None):
 # -- scenarios ---------------------------------------------------------------------------------------
 
 
+def _shown(preset, aside, shot, area, sidebar):
+    """The preset ``preset`` loaded (unless None) and the sub-panel ``aside`` put out of the way, then the sidebar
+    drawn and its screenshot taken as ``shot`` (a step of a scenario: ``yield from``)."""
+    if preset is not None:
+        in_view3d(bpy.ops.cp_stylize.preset_load, name=preset)
+    bpy.utils.unregister_class(aside)
+    area.tag_redraw()
+    yield 1.5
+    screenshot(shot, sidebar)
+
+
 def scenario_panel():
     """The sidebar's Stylize tab, with every panel open, for every mode."""
     panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
@@ -204,44 +215,25 @@ def scenario_panel():
     facts["toon"] = {"toon_levels": settings.toon_levels, "toon_outlines": settings.toon_outlines,
                      "line_width": settings.line_width}
     # the Watercolour preset, with the Toon sub-panel out of the way too
-    in_view3d(bpy.ops.cp_stylize.preset_load, name="watercolour")
-    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_toon)
-    area.tag_redraw()
-    yield 1.5
-    screenshot("panel_watercolour", sidebar)
+    yield from _shown("watercolour", panels.VIEW3D_PT_cp_stylize_toon, "panel_watercolour", area, sidebar)
     facts["watercolour"] = {"wash_levels": settings.wash_levels, "oil_size": settings.oil_size,
                             "labels": [settings.bl_rna.properties[name].name for name in
                                        ("wash_edges", "wash_granulation", "wash_bleed", "wash_wobble")]}
     # the Ink Hatching preset, with the Watercolour sub-panel out of the way too
-    in_view3d(bpy.ops.cp_stylize.preset_load, name="hatching")
-    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_watercolour)
-    area.tag_redraw()
-    yield 1.5
-    screenshot("panel_hatching", sidebar)
+    yield from _shown("hatching", panels.VIEW3D_PT_cp_stylize_watercolour, "panel_hatching", area, sidebar)
     facts["hatching"] = {"hatch_spacing": settings.hatch_spacing, "hatch_layers": settings.hatch_layers,
                          "line_width": settings.line_width}
     # the Hand-Painted preset, with the Ink Hatching sub-panel out of the way too: its light, edges and warmth
-    in_view3d(bpy.ops.cp_stylize.preset_load, name="hand_painted")
-    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_hatching)
-    area.tag_redraw()
-    yield 1.5
-    screenshot("panel_hand_painted", sidebar)
+    yield from _shown("hand_painted", panels.VIEW3D_PT_cp_stylize_hatching, "panel_hand_painted", area, sidebar)
     facts["hand_painted"] = {name: getattr(settings, name) for name in ("shade_light", "shade_edges", "shade_warmth")}
     # the Sunflower Vase preset, with the Hand-Painted Light sub-panel out of the way too: the Palette
     # sub-panel's mapping by tone and hue, its Fidelity and the Palette Hues under it
-    in_view3d(bpy.ops.cp_stylize.preset_load, name="sunflower_vase")
-    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_shading)
-    area.tag_redraw()
-    yield 1.5
-    screenshot("panel_palette", sidebar)
+    yield from _shown("sunflower_vase", panels.VIEW3D_PT_cp_stylize_shading, "panel_palette", area, sidebar)
     facts["palette"] = {"fidelity": settings.fidelity, "hue_snap": settings.hue_snap,
                         "label": settings.bl_rna.properties["hue_snap"].name}
     # the Output sub-panel, with the Palette sub-panel out of the way too: its limits' labels whole at the
     # sidebar's width
-    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_palette)
-    area.tag_redraw()
-    yield 1.5
-    screenshot("panel_output", sidebar)
+    yield from _shown(None, panels.VIEW3D_PT_cp_stylize_palette, "panel_output", area, sidebar)
     facts["output_labels"] = [settings.bl_rna.properties[name].name for name in ("memory_limit", "time_limit")]
     bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_output)      # back in their order
     aside += [panels.VIEW3D_PT_cp_stylize_toon, panels.VIEW3D_PT_cp_stylize_watercolour,
