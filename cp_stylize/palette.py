@@ -34,10 +34,12 @@ back (at 0.5 the picture's hues in the palette's tones and chroma), from 0.5
 to 1 its lightness and chroma (at 1 the picture's colours).
 
 ``hue_snap`` turns the hues fidelity brings back to the palette's nearest (a
-soft choice among the palette's hued colours, :data:`SNAP_SHARP`), each at
-the chroma the palette gives its hue family: at 1 a photograph's grey-blue
-sky takes a painting's pale blue-green, where its own hue would be a lilac
-the painting never had, and a brown the palette's orange and sienna.
+soft choice among the palette's hued colours, :data:`SNAP_SHARP`, those of
+the colour's tone first), each at the chroma the palette gives its hue
+family: at 1 a photograph's grey-blue sky takes a painting's pale
+blue-green, where its own hue would be a lilac the painting never had, a
+brown the palette's orange and sienna, and a green foliage the palette's
+olive in its darks and its yellows in its lights.
 """
 
 from __future__ import annotations
@@ -232,7 +234,8 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hu
     mix_chroma = np.hypot(mix[:, 1], mix[:, 2])[:, None]
     own_hue = lab[:, 1:] / np.maximum(chroma, 1e-12)[:, None]
     if hue_snap > 0:
-        own_hue, mix_chroma = _snapped(own_hue, cos, mix_chroma, lab_palette, palette_chroma, palette_hued, hue_snap)
+        own_hue, mix_chroma = _snapped(own_hue, cos, tone, mix_chroma, lab_palette, palette_chroma, palette_hued,
+                                       hue_snap)
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
     ab *= (MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0))[:, None]    # a grey stays a muted colour
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
@@ -240,14 +243,17 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hu
     return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * own_ab])
 
 
-def _snapped(own_hue, cos, mix_chroma, lab_palette, palette_chroma, palette_hued, hue_snap):
+def _snapped(own_hue, cos, tone, mix_chroma, lab_palette, palette_chroma, palette_hued, hue_snap):
     """The unit hues ``own_hue`` (M, 2) turned ``hue_snap`` of the way to the palette's nearest hues, and the
     chroma ``mix_chroma`` (M, 1) (that of the palette colours of the colour's tone) turned as far to the chroma
     the palette gives those hues: their mean weighted by chroma, so that the strongest of like hues counts most
     (a yellow takes the palette's chrome yellow, not the mean of it and its pale lemon; a brown its orange
-    and sienna, not the dull chroma of a blue-green that shares its tone).  ``cos`` (M, K): the cosines of the
-    hue differences to the palette colours, of which only the ``palette_hued`` (K,) have a hue."""
-    near = palette_hued[None, :] * np.exp(-SNAP_SHARP * (1.0 - cos))
+    and sienna, not the dull chroma of a blue-green that shares its tone).  Of hues alike, those of colours
+    nearer the colour's tone count more (``tone`` (M, K): its distance in tone to each palette colour, as in
+    the mapping's fit): a green picture's darks take a palette's olive, its mid-tones the yellow-green and its
+    lights the yellows beside it, as a painter lights foliage.  ``cos`` (M, K): the cosines of the hue
+    differences to the palette colours, of which only the ``palette_hued`` (K,) have a hue."""
+    near = palette_hued[None, :] * np.exp(-SNAP_SHARP * (1.0 - cos) - tone**2)
     palette_hue = lab_palette[:, 1:] / np.maximum(palette_chroma, 1e-12)[:, None]
     hue = (1.0 - hue_snap) * own_hue + hue_snap * _unit(near @ palette_hue)
     chroma = near @ (palette_chroma**2)[:, None] / np.maximum(near @ palette_chroma[:, None], 1e-12)

@@ -108,6 +108,24 @@ def test_palette_hues_turn_the_pictures_hues_to_the_palettes_nearest():
         map_to_palette(picture, palette, hue_snap=3)
 
 
+def test_palette_hues_light_a_green_with_the_palettes_yellows_and_shade_it_with_its_olive():
+    """Of the palette's hues near a colour's, those of its tone count more: an even green, dark to light, takes the
+    palette's olive in its darks and turns towards the yellows beside its yellow-green in its lights."""
+    palette = _rgb(["#3b2412", "#3f5a26", "#9aa83a", "#5c98a0", "#d99a2b", "#f0b81c", "#f7d44a", "#98c8c8"])
+    olive = np.degrees(np.arctan2(*to_oklab(palette)[1, [2, 1]]))
+    lightness = np.linspace(0.3, 0.85, 600)
+    green = np.column_stack([lightness, 0.06 * np.cos(np.radians(125)) * np.ones(600),
+                             0.06 * np.sin(np.radians(125)) * np.ones(600)])
+    from cp_stylize.oklab import from_oklab
+
+    mapped = to_oklab(map_to_palette(np.clip(from_oklab(green), 0, 1), palette, fidelity=0.55, hue_snap=1.0))
+    hue = np.degrees(np.arctan2(mapped[:, 2], mapped[:, 1]))
+    darks, lights = np.median(hue[:200]), np.median(hue[400:])
+    print(f"\ndarks {darks:.1f} degrees (olive {olive:.1f}), lights {lights:.1f} degrees")
+    assert abs(darks - olive) < 10
+    assert lights < darks - 15                       # towards the yellows (95 degrees and less)
+
+
 def test_values_keep_the_pictures_own_light_and_dark():
     """With Keep Values at 1, a dark picture stays dark and a pale one pale, whatever share of the tones the
     weights give the palette's colours; at 0 the tones are spread over the palette by rank."""
