@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arrays import unit_rows
 from .oklab import from_oklab, to_oklab
 from .sparse import map_parallel
 
@@ -200,7 +201,7 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     return result
 
 
-def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hue_snap=0.0):
+def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hue_snap):
     """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
@@ -254,15 +255,9 @@ def _snapped(own_hue, cos, tone, mix_chroma, lab_palette, palette_chroma, palett
     lights the yellows beside it, as a painter lights foliage.  ``cos`` (M, K): the cosines of the hue
     differences to the palette colours, of which only the ``palette_hued`` (K,) have a hue."""
     near = palette_hued[None, :] * np.exp(-SNAP_SHARP * (1.0 - cos) - tone**2)
-    palette_hue = lab_palette[:, 1:] / np.maximum(palette_chroma, 1e-12)[:, None]
-    hue = (1.0 - hue_snap) * own_hue + hue_snap * _unit(near @ palette_hue)
+    hue = (1.0 - hue_snap) * own_hue + hue_snap * unit_rows(near @ unit_rows(lab_palette[:, 1:])[0])[0]
     chroma = near @ (palette_chroma**2)[:, None] / np.maximum(near @ palette_chroma[:, None], 1e-12)
-    return _unit(hue), (1.0 - hue_snap) * mix_chroma + hue_snap * chroma
-
-
-def _unit(ab):
-    """The rows of ``ab`` (M, 2) scaled to unit length (a zero row stays zero)."""
-    return ab / np.maximum(np.hypot(ab[:, 0], ab[:, 1]), 1e-12)[:, None]
+    return unit_rows(hue)[0], (1.0 - hue_snap) * mix_chroma + hue_snap * chroma
 
 
 def kept_chroma(ab, chroma):

@@ -17,6 +17,7 @@ from .smoothing import GridGaussian, taper
 __all__ = ["StrokeField", "Swirls", "form_field", "level_field", "level_share", "sample_directions", "size_smoothings",
            "FALLBACK_TRUST"]
 
+
 def size_smoothings(band, sizes):
     """Gaussians on the band (:class:`~cp_stylize.smoothing.GridGaussian`, tapered off the surface), one for
     each dab size of ``sizes`` (broad to fine), of deviation half the size; each shares the grids of the one
