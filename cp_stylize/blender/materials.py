@@ -314,6 +314,7 @@ def wire(material, image, uv_name, changes):
         changes.link(tree, tex.outputs["Color"], socket)
     changes.set(tex, "image", image)
     changes.set(tex, "interpolation", "Cubic")       # smooth where the render magnifies the texture
+    changes.set(tex, "extension", "EXTEND")          # the atlas lies in [0, 1]: no wrap to the far side
     uv = tree.nodes.get(UV_NODE)
     uv_linked = tex.inputs["Vector"].is_linked and tex.inputs["Vector"].links[0].from_node == uv
     if uv_name:
@@ -371,6 +372,7 @@ def wire_relief(material, image, uv_name, distance, changes):
     changes.set(tex, "image", image)
     changes.set(tex, "mute", False)
     changes.set(tex, "interpolation", "Cubic")       # smooth slopes between texels: no stair-stepped bumps
+    changes.set(tex, "extension", "EXTEND")          # a repeat would slope the relief to the far side's height
     uv = tree.nodes.get(UV_NODE)
     vector = tex.inputs["Vector"]
     if uv_name and uv is not None and uv.type == "UVMAP":

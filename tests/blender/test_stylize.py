@@ -93,6 +93,10 @@ def test_starry_night_on_an_image_textured_sphere(addon):
     assert relief.colorspace_settings.name == "Non-Color" and relief.packed_file is not None
     assert next(n for n in copy.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Normal"].links[0].from_node == bump
     assert _pixels(relief)[covered, 0].max() > 0.3
+    # both images clamp at their borders: an atlas texel at the top edge is not blended with the bottom row's,
+    # which would draw a line of the far side's colour and a slope of its height along an open border
+    assert copy.node_tree.nodes["cp_stylize"].extension == "EXTEND"
+    assert copy.node_tree.nodes["cp_stylize relief"].extension == "EXTEND"
     bpy.ops.cp_stylize.preset_load(name="starry_night")
     addon.quality, addon.strokes = "PREVIEW", 0.0
     obj.material_slots[0].material = material
