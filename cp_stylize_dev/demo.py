@@ -1,8 +1,8 @@
 """The main job: ``python -m cp_stylize demo --out DIR``.
 
 Builds a scene with Suzanne (two subdivision levels) textured with a
-photograph that ships with Blender, runs the Starry Night preset on it with
-the Stylize operator and writes ``demo.blend``, ``before.png``, ``after.png``
+photograph that ships with Blender (wrapped around her: :func:`wrapped_photo`),
+runs the Starry Night preset on it with the Stylize operator and writes ``demo.blend``, ``before.png``, ``after.png``
 (Cycles renders) and ``texture.png`` (the stylized texture).
 """
 
@@ -16,12 +16,15 @@ from cp_stylize.blender import images
 from . import scene
 
 
+#: Texels a side of the demo's texture, and the panorama's longitude that faces the front view (degrees).
+TEXTURE_SIZE = 2048
+FACING = 90.0
+
+
 def build_scene(texture_name="forest", levels=2):
-    """Suzanne with a Subdivision modifier (``levels``) and a material reading a photograph through her UVs."""
+    """Suzanne with a Subdivision modifier (``levels``) and a material reading, through her UVs, a photograph
+    wrapped around her (:func:`wrapped_photo`)."""
     scene.reset()
-    texture = scene.photo_texture(texture_name)
-    source = images.array_to_image("demo_texture", texture)
-    material = scene.new_material("Demo", source)
     bpy.ops.mesh.primitive_monkey_add(size=2.0)
     obj = bpy.context.active_object
     obj.name = "Suzanne"
@@ -29,8 +32,36 @@ def build_scene(texture_name="forest", levels=2):
     modifier.levels = modifier.render_levels = levels
     bpy.ops.object.shade_smooth()
     obj.rotation_euler = (0.0, 0.0, 0.0)
+    source = images.array_to_image("demo_texture", wrapped_photo(obj, scene.photo_texture(texture_name)))
+    material = scene.new_material("Demo", source)
     obj.data.materials.append(material)
     return obj, material, source
+
+
+def wrapped_photo(obj, panorama, size=TEXTURE_SIZE, facing=FACING):
+    """A texture (size, size, 3) in ``obj``'s UVs showing at each point of its surface the equirectangular
+    ``panorama`` (H, W, 3) in that point's direction from the object's centre, as if the photograph were
+    projected onto it from inside: one continuous picture over the surface, whatever its UV seams (Suzanne's
+    own texture coordinates cut her head in two, so the photograph read through them breaks down her brow).
+    Texels outside the UV islands take their nearest island texel's colour."""
+    import numpy as np
+
+    from cp_stylize import raster
+    from cp_stylize.blender import meshdata
+    from cp_stylize.texture import bilinear
+
+    data = meshdata.read(obj)
+    uv = data.uv_maps[data.render_uv]
+    texels, triangles, bary, _ = raster.rasterise(uv, size)
+    corners = data.vertices[data.triangles[triangles]]
+    points = np.einsum("mk,mkd->md", bary.astype(np.float64), corners)
+    low, high = data.vertices.min(axis=0), data.vertices.max(axis=0)
+    d = points - (low + high) / 2
+    longitude = np.arctan2(d[:, 1], -d[:, 0]) / (2 * np.pi) + 0.5 + facing / 360.0
+    latitude = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1])) / np.pi + 0.5
+    colours = bilinear(panorama[..., :3], np.column_stack([longitude, latitude]), wrap=("repeat", "clamp"))
+    return np.stack([raster.nearest_filled(colours[:, c], texels, size) for c in range(3)],
+                    axis=-1).astype(np.float32)
 
 
 def run(out_dir, *, preset="starry_night", quality="STANDARD", image_size="1024", resolution=(480, 400),

@@ -43,12 +43,12 @@ def test_renders_show_the_textured_object_and_its_change(demo_out):
     obj = np.abs(before - background).max(axis=2) > 0.05
     assert obj.mean() > 0.15 and before[obj].std() > 0.03
     # Starry Night: the after render changed, and the object turned to the painting's blues, with star yellows
-    # in it; the subject keeps its tones (the light eyes stay light on the dark wood)
+    # in it; the subject keeps its tones (the light sky stays light over the dark ground)
     assert np.abs(after - before).mean() > 0.01
     blue = lambda img: (img[..., 2] > img[..., 0] + 0.05)[obj].mean()
     yellow = lambda img: ((img[..., 0] > img[..., 2] + 0.1) & (img[..., 1] > img[..., 2] + 0.1))[obj].mean()
-    assert blue(after) > 0.5 and blue(after) > blue(before) + 0.3
-    assert yellow(after) > 0.015 and yellow(after) > yellow(before) + 0.015    # 2.2 % yellow, from 0.3 %
+    assert blue(after) > 0.4 and blue(after) > blue(before) + 0.2     # 51 % blue, from the sky's 22 %
+    assert yellow(after) > yellow(before) + 0.05                      # 13 % yellow, from 2 %
     lum = lambda img: img[obj] @ np.array([0.2126, 0.7152, 0.0722])
     assert np.corrcoef(lum(before), lum(after))[0, 1] > 0.5
 
@@ -64,5 +64,32 @@ tex = mat.node_tree.nodes['cp_stylize']
 assert tex.image.name == 'Suzanne_stylized' and tex.image.packed_file is not None
 orig = bpy.data.materials['Demo']
 assert next(n for n in orig.node_tree.nodes if n.type == 'TEX_IMAGE').image.name == 'demo_texture'
+"""
+    fresh_blender(code)
+
+
+def test_the_demo_photograph_is_one_picture_over_suzanne_across_her_uv_seams():
+    """Suzanne's own UVs cut her head in two; the demo's photograph is wrapped around her, so a vertex on a
+    UV seam reads the same colour through each of its UVs (read straight through the UVs, the photograph
+    breaks there: a median of 0.09 and a 90th percentile of 0.46 between the two sides)."""
+    code = """
+import numpy as np
+from cp_stylize_dev import demo
+from cp_stylize.blender import images, meshdata
+from cp_stylize.texture import bilinear
+obj, _, source = demo.build_scene()
+data = meshdata.read(obj)
+uv, vertex = data.uv_maps[data.render_uv].reshape(-1, 2), data.triangles.ravel()
+colour = bilinear(images.image_to_array(source)[..., :3], uv)
+n = vertex.max() + 1
+low, high = np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
+np.minimum.at(low, vertex, colour)
+np.maximum.at(high, vertex, colour)
+corners = np.unique(np.column_stack([vertex, np.round(uv * 1e5)]), axis=0)
+seam = np.bincount(corners[:, 0].astype(np.int64), minlength=n) > 1
+spread = (high - low).max(axis=1)[seam]
+print('seam vertices', seam.sum(), 'spread', np.percentile(spread, [50, 90]))
+assert seam.sum() > 100
+assert np.median(spread) < 0.03 and np.percentile(spread, 90) < 0.15, np.percentile(spread, [50, 90])
 """
     fresh_blender(code)
