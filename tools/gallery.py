@@ -81,6 +81,8 @@ def build(kind, texture=None):
         obj = bpy.context.active_object
         obj.scale = (2.0, 1.0, 1.0)
         size = (SIZE, SIZE // 2)
+        # a framed photograph, not a tiling texture: its top edge is not blended with its bottom row's road
+        next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE").extension = "EXTEND"
     obj.name = kind.title()
     obj.data.materials.append(material)
     return obj, size
