@@ -23,7 +23,7 @@ def test_every_shipped_preset_loads():
 @pytest.mark.parametrize("name", PAINTERLY)
 def test_the_painterly_presets_paint_strokes_three_to_five_times_longer_than_wide_with_relief(name):
     s = load_preset(name)
-    assert (s.noise_mapping, s.strokes) == ("tone", 1.0) and 0.0 <= s.detail <= 1.0
+    assert (s.noise_mapping, s.strokes) == ("tone", 1.0) and 0.1 <= s.detail <= 1.0     # some of the picture's detail in the paint
     low, high = 1 - LENGTH_SPREAD, 1 + LENGTH_SPREAD
     assert 3.0 <= low * s.stroke_length / s.stroke_width and high * s.stroke_length / s.stroke_width <= 5.0
     assert s.relief > 0 and s.contours > 0 and s.stroke_layers >= 2
@@ -32,8 +32,6 @@ def test_the_painterly_presets_paint_strokes_three_to_five_times_longer_than_wid
 def test_the_painterly_presets_are_each_their_own_look():
     starry, form, sunflowers = (load_preset(name) for name in PAINTERLY)
     assert starry.swirl > 0 and form.swirl == sunflowers.swirl == 0            # only Starry Night swirls
-    # only Starry Night inks the picture's thin lines (a jib, twigs); the others paint them over
-    assert starry.detail > 0 and form.detail == sunflowers.detail == 0
     assert form.stroke_direction == "min" and starry.stroke_direction == "texture"   # along the form
     assert sunflowers.relief > starry.relief and sunflowers.stroke_width > starry.stroke_width   # thick, broad
     assert len({starry.palette, form.palette, sunflowers.palette}) == 3
