@@ -6,7 +6,8 @@ Usage (the Python with the ``bpy`` module, from the checkout)::
     python tools/contact_sheet.py --out sheet_out --quality standard --docs docs/presets.png
 
 Each cell is its own scene: Suzanne (the demo's, two subdivision levels) or a
-UV sphere, both wearing Blender's forest photograph through their UVs; the
+UV sphere, both wearing Blender's forest photograph (the sphere through its
+UVs, Suzanne wrapped around her, :func:`cp_stylize_dev.demo.wrapped_photo`); the
 preset is loaded and run with the Stylize operator, as a user would, and the
 object rendered.  The first cell of each object is the photograph itself.  Writes each
 render (``<object>_<preset>.png``) and the sheet (``contact_sheet.png``) into

@@ -6,8 +6,8 @@ Usage (the Python with the ``bpy`` module, from the checkout)::
 
 Each preset is loaded and run with the Stylize operator at Standard quality
 into a 2048 x 2048 image (:data:`IMAGE_SIZE`), as a user would, and the
-object rendered at 1024 pixels: Suzanne (the demo's, two subdivision levels) and a UV sphere wearing
-Blender's forest photograph through their UVs, and a 2 x 1 frame wearing
+object rendered at 1024 pixels: Suzanne (the demo's, two subdivision levels, Blender's forest photograph
+wrapped around her) and a UV sphere wearing that photograph through its UVs, and a 2 x 1 frame wearing
 Blender's city photograph (buildings, a crane, road markings), seen straight
 on; and each subject wearing its photograph (``<subject>_photo.jpg``).  For
 each stylized render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
