@@ -60,7 +60,8 @@ def wrapped_photo(obj, panorama, size=TEXTURE_SIZE, facing=FACING):
     longitude = np.arctan2(d[:, 1], -d[:, 0]) / (2 * np.pi) + 0.5 + facing / 360.0
     latitude = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1])) / np.pi + 0.5
     colours = bilinear(panorama[..., :3], np.column_stack([longitude, latitude]), wrap=("repeat", "clamp"))
-    return np.stack([raster.nearest_filled(colours[:, c], texels, size) for c in range(3)],
+    nearest = raster.nearest_texels(texels, size)
+    return np.stack([raster.nearest_filled(colours[:, c], texels, size, nearest) for c in range(3)],
                     axis=-1).astype(np.float32)
 
 
