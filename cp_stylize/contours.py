@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrays import aligned
+from .arrays import aligned, smooth_step
 from .oklab import from_oklab, to_oklab
 from .smoothing import GaussianSmoother, taper
 from .structure import grid_gradients
@@ -126,6 +126,18 @@ FINE_ANGLES = 8
 #: The depth is smoothed by a Gaussian of this many texels first: the dots of a lattice or of a line
 #: sampled across texels join into one line.
 FINE_JOIN = 0.8
+#: A line is drawn only where it stands out from the picture's own variation about it, as a painter
+#: draws a twig against the sky or a crane's jib with a rigger and masses the gaps in a canopy or the
+#: cracks in gravel with the brush: its depth over the local spread of the picture with its thin features
+#: filled in (the closing, less its Gaussian of FINE_TREND ``radius`` so that a smooth glow is calm, in a
+#: Gaussian window of FINE_CALM ``radius``; FINE_QUIET is the spread of a calm sky's grain) must reach
+#: FINE_STANDOUT[0], and the line is whole from FINE_STANDOUT[1].  Where a canopy meets the sky, the
+#: closing changes from the one to the other, so the window is not calm there either and the canopy's
+#: edge gets no dark rim.
+FINE_STANDOUT = (1.5, 2.5)
+FINE_TREND = 2.0
+FINE_CALM = 4.0
+FINE_QUIET = 0.005
 
 
 def thin_lines(lightness, flat, size, radius, width=1.0):
@@ -135,8 +147,8 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
     ``width`` texels wide, as a fine brush draws a line, not at the picture's own hairline.
 
     A feature is thin where a morphological closing by a disc of ``radius`` texels fills it in (a
-    black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink.  A
-    disc is the same in every direction, so the lines do not depend on how a chart lies in the atlas;
+    black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink, where
+    the feature stands out from the picture's variation about it (:data:`FINE_STANDOUT`).  A disc is the same in every direction, so the lines do not depend on how a chart lies in the atlas;
     the atlas's margin texels continue the surface past each chart's edge, so the few texels the
     disc reads across an edge come from the surface on the other side.  With several ``width`` (K,),
     the ink (K, M) at each of them.
@@ -147,10 +159,15 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
     image = np.ones(size * size, dtype=np.float32)
     image[flat] = lightness
     image = image.reshape(size, size)
-    depth = ndimage.gaussian_filter(ndimage.grey_closing(image, footprint=disc) - image, FINE_JOIN)
+    closed = ndimage.grey_closing(image, footprint=disc)
+    grain = closed - ndimage.gaussian_filter(closed, FINE_TREND * radius)
+    spread = np.sqrt(ndimage.gaussian_filter(grain * grain, FINE_CALM * radius)) + FINE_QUIET
+    depth = ndimage.gaussian_filter(closed - image, FINE_JOIN)
     depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
                              for segment in _segments(FINE_LENGTH * radius)])
-    ink = np.clip((depth - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
+    low, high = FINE_STANDOUT
+    ink = (np.clip((depth - FINE_START) / (FINE_FULL - FINE_START), 0.0, 1.0)
+           * smooth_step((depth / spread - low) / (high - low)))
     out = []
     for w in np.atleast_1d(width):
         # the brush's own width, round, about the line's middle

@@ -63,7 +63,9 @@ def test_thin_lines_ink_a_thin_dark_line_in_any_direction_but_not_a_broad_dark_f
     image[(np.abs(x + 25) < 12) & (np.abs(y - 25) < 12) & (across > 6)] = 0.3     # a broad dark block
     ink = _thin(image)
     middle = (np.hypot(x, y) < 30) & (np.hypot(x + 25, y - 25) > 20)
-    assert ink[(across < 0.6) & middle].min() > 0.8            # the line is inked along its whole length
+    assert ink[(across < 0.6) & middle].min() > 0.6            # the line is inked along its whole length,
+    clear = middle & (np.hypot(x + 25, y - 25) > 32)
+    assert ink[(across < 0.6) & clear].min() > 0.8             # fully where no dark form's edge stands beside it
     assert ink[(across > 5) & middle].max() < 0.05             # and nowhere beside it
     block = (np.abs(x + 25) < 8) & (np.abs(y - 25) < 8) & (across > 10)
     assert ink[block].max() < 0.05                             # a broad form is the dabs', not a line's
@@ -81,6 +83,33 @@ def test_thin_lines_leave_dots_and_faint_lines_to_the_dabs():
     faint = np.full((size, size), 0.8, dtype=np.float32)
     faint[:, 47:49] = 0.8 - 0.02                                 # a line fainter than FINE_START
     assert _thin(faint).max() == 0.0
+
+
+def test_thin_lines_in_a_busy_canopy_are_left_to_the_dabs_but_not_the_twig_against_the_sky(monkeypatch):
+    from scipy import ndimage
+
+    from cp_stylize import contours
+
+    size = 128
+    rng = np.random.default_rng(5)
+    y, x = np.mgrid[:size, :size]
+    canopy = x < size // 2
+    # leaves: lightness varying by about 0.12 over a few texels, the gaps between them darker by 0.2
+    leaves = 0.55 + 0.12 * ndimage.gaussian_filter(rng.standard_normal((size, size)), 2.0) / 0.14
+    image = np.where(canopy, leaves, 0.8).astype(np.float32)
+    for _ in range(60):
+        cy, cx = rng.integers(6, size - 6), rng.integers(6, size // 2 - 10)
+        angle = rng.uniform(0, np.pi)
+        for t in np.linspace(-5, 5, 21):
+            image[int(round(cy + t * np.sin(angle))), int(round(cx + t * np.cos(angle)))] -= 0.2
+    image[size // 2 - 1:size // 2 + 1, size // 2 + 12:size - 8] = 0.45          # a twig in the sky
+    ink = _thin(image)
+    assert ink[:, 8:size // 2 - 8].mean() < 0.06                    # the canopy's gaps: hardly a trace
+    assert ink[size // 2 - 1:size // 2 + 1, size // 2 + 20:size - 16].min() > 0.8     # the twig: drawn whole
+    sky = (x > size // 2 + 8) & (np.abs(y - size // 2) > 5)
+    assert ink[sky].max() < 0.05
+    monkeypatch.setattr(contours, "FINE_STANDOUT", (-2.0, -1.0))   # by depth alone, the gaps are lines
+    assert _thin(image)[:, 8:size // 2 - 8].mean() > 0.2
 
 
 def test_a_thin_line_is_drawn_as_wide_as_the_brush_asked_for():
