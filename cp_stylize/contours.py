@@ -130,13 +130,14 @@ FINE_JOIN = 0.8
 #: draws a twig against the sky or a crane's jib with a rigger and masses the gaps in a canopy or the
 #: cracks in gravel with the brush: its depth over the local spread of the picture with its thin features
 #: filled in (the closing, less its Gaussian of FINE_TREND ``radius`` so that a smooth glow is calm, in a
-#: Gaussian window of FINE_CALM ``radius``; FINE_QUIET is the spread of a calm sky's grain) must reach
-#: FINE_STANDOUT[0], and the line is whole from FINE_STANDOUT[1].  Where a canopy meets the sky, the
-#: closing changes from the one to the other, so the window is not calm there either and the canopy's
-#: edge gets no dark rim.
+#: Gaussian window of FINE_CALM ``radius``, the calmest within FINE_BESIDE ``radius``; FINE_QUIET is the
+#: spread of a calm sky's grain) must reach FINE_STANDOUT[0], and the line is whole from
+#: FINE_STANDOUT[1].  The calmest near by: a mast standing up from a roof is measured against the sky
+#: beside it, not against the roof's edge.  Inside a canopy every window is busy.
 FINE_STANDOUT = (1.5, 2.5)
 FINE_TREND = 2.0
 FINE_CALM = 4.0
+FINE_BESIDE = 2.0
 FINE_QUIET = 0.005
 
 
@@ -160,8 +161,7 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
     image[flat] = lightness
     image = image.reshape(size, size)
     closed = ndimage.grey_closing(image, footprint=disc)
-    grain = closed - ndimage.gaussian_filter(closed, FINE_TREND * radius)
-    spread = np.sqrt(ndimage.gaussian_filter(grain * grain, FINE_CALM * radius)) + FINE_QUIET
+    spread = _spread(closed, radius) + FINE_QUIET
     depth = ndimage.gaussian_filter(closed - image, FINE_JOIN)
     depth = np.maximum.reduce([ndimage.grey_opening(depth, footprint=segment)
                              for segment in _segments(FINE_LENGTH * radius)])
@@ -174,6 +174,19 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
         wide = ndimage.grey_dilation(ink, footprint=_disc((w - 1.0) / 2.0)) if w > 1.5 else ink
         out.append(ndimage.uniform_filter(wide, 3, mode="constant").ravel()[flat])   # anti-aliased
     return out[0] if np.ndim(width) == 0 else np.stack(out)
+
+
+def _spread(closed, radius):
+    """The spread of the picture ``closed`` (its thin features filled in) about each texel, less its smooth
+    trend, the calmest within :data:`FINE_BESIDE` ``radius`` (:data:`FINE_STANDOUT`).  It changes over
+    several ``radius``, so it is taken on every second texel each way and laid back bilinearly."""
+    from scipy import ndimage
+
+    coarse = closed[::2, ::2]
+    grain = coarse - ndimage.gaussian_filter(coarse, FINE_TREND * radius / 2)
+    spread = ndimage.grey_erosion(np.sqrt(ndimage.gaussian_filter(grain * grain, FINE_CALM * radius / 2)),
+                                  footprint=_disc(FINE_BESIDE * radius / 2))
+    return ndimage.zoom(spread, 2, order=1, grid_mode=True, mode="nearest")[:closed.shape[0], :closed.shape[1]]
 
 
 def _disc(radius):
