@@ -149,10 +149,11 @@ def thin_lines(lightness, flat, size, radius, width=1.0):
 
     A feature is thin where a morphological closing by a disc of ``radius`` texels fills it in (a
     black top-hat): the depth it fills, from :data:`FINE_START` to :data:`FINE_FULL`, is the ink, where
-    the feature stands out from the picture's variation about it (:data:`FINE_STANDOUT`).  A disc is the same in every direction, so the lines do not depend on how a chart lies in the atlas;
-    the atlas's margin texels continue the surface past each chart's edge, so the few texels the
-    disc reads across an edge come from the surface on the other side.  With several ``width`` (K,),
-    the ink (K, M) at each of them.
+    the feature stands out from the picture's variation about it (:data:`FINE_STANDOUT`).  A disc is the
+    same in every direction, so the lines do not depend on how a chart lies in the atlas; the atlas's
+    margin texels continue the surface past each chart's edge, so the few texels the disc reads across
+    an edge come from the surface on the other side.  With several ``width`` (K,), the ink (K, M) at
+    each of them.
     """
     from scipy import ndimage
 
