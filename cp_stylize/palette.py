@@ -12,10 +12,11 @@ take the same colour.  :func:`map_to_palette` works in OKLab
   palette colour takes the share of the ranks its weight asks for, and the
   lightness follows the palette's own at that rank;
 - **hue**: where a colour and a palette colour both have a hue (a chroma
-  above :data:`GREY`), their hue difference counts too, so a yellow keeps to
-  the palette's yellows and ochres, a red door to its warmest colour, while
-  a grey takes whichever colour the palette gives its tone (a grey sky the
-  painting's blues).  Hue counts in the picture's lighter tones only (from
+  above :data:`GREY`, counted from a fraction :data:`HUE_START` of it for the
+  picture's colours), their hue difference counts too, so a yellow keeps to
+  the palette's yellows and ochres, a red door to its warmest colour, a
+  grey-blue overcast sky to the painting's blues, while a neutral grey
+  takes whichever colour the palette gives its tone.  Hue counts in the picture's lighter tones only (from
   the tone rank :data:`HUE_FROM`, fully from :data:`HUE_FULL`): a dark brown
   or a dark green keeps to the palette's colours of its tone, rather than
   turn the palette's only warm colours, its light yellows, into stains.
@@ -61,8 +62,12 @@ TONE_REACH = 0.2
 #: How far in hue a colour may lie from a palette colour and still take it (distance of unit hue
 #: vectors: 0.5 is about 29 degrees).
 HUE_REACH = 0.5
-#: The hue of a strongly coloured picture colour (chroma of (HUE_WEIGHT + 0.5) * GREY or more) counts this
-#: many times as much as one at 1.5 GREY.
+#: A picture colour's hue counts from a chroma of HUE_START * GREY on: the blue of a grey-blue overcast sky
+#: (chroma about 0.4 GREY) keeps it to the palette's blues rather than an ochre of its tone, where a neutral grey
+#: (asphalt, concrete) takes whichever colour the palette gives its tone.  The hue of a strongly coloured one
+#: (chroma of (HUE_WEIGHT + HUE_START) * GREY or more) counts HUE_WEIGHT times as much as one at
+#: (1 + HUE_START) GREY.
+HUE_START = 0.25
 HUE_WEIGHT = 3.0
 #: A colour's hue counts from this tone rank on, and fully from HUE_FULL: the picture's darks keep to the
 #: palette's colours of their tone, whatever their hue (a dark brown does not turn the palette's yellow).
@@ -205,10 +210,10 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hu
     """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
-    # how much a hue counts: nothing for greys (chroma up to GREY / 2: asphalt, an overcast sky), up to
+    # how much a hue counts: nothing for neutral greys (chroma up to HUE_START * GREY: asphalt), up to
     # HUE_WEIGHT times for strong colours (a saturated red must not turn blue however its tone ranks);
     # and whether a palette colour has a hue at all
-    hued = np.clip(chroma / GREY - 0.5, 0.0, HUE_WEIGHT)
+    hued = np.clip(chroma / GREY - HUE_START, 0.0, HUE_WEIGHT)
     palette_hued = np.clip(palette_chroma / GREY, 0.0, 1.0)
     # distance in tone: how far the rank lies outside each colour's share
     tone = np.maximum(np.abs(ranks[:, None] - centres[None, :]) - weights[None, :] / 2, 0.0) / TONE_REACH
