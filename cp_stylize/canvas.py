@@ -67,9 +67,10 @@ LOAD_STREAK = 0.5
 #: The last dab of a stroke runs dry from this share of its half length behind its centre to its tail.
 DRY_AT = 0.4
 #: A dab's paint is as thick as this power of its width over the widest dabs' (a fine brush carries less
-#: paint), and a finer layer's dabs lie on the paint under them as a stroke's first dab does: the broad
-#: strokes carry the relief and the fine ones do not comb it.
-FINE_PAINT = 0.5
+#: paint: a dab half as wide, a quarter as thick), and a finer layer's dabs lie on the paint under them as a
+#: stroke's first dab does: the broad strokes carry the relief, in ridges a stroke wide, and the many fine
+#: ones do not comb it into a fur of furrows a few texels apart.
+FINE_PAINT = 2.0
 #: The bristles' streaks in a dab's colour are at least this many texels apart, and a dab has at most
 #: about this many of them (with two at least) ...
 STREAK_TEXELS = 3.0

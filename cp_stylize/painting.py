@@ -82,14 +82,16 @@ class Painting:
     OKLab lightness and the band's colours', kept within
     :data:`GRAIN_REACH`, is added to the painted lightness, and the
     picture's thin dark lines, too thin for a dab, are inked over the strokes
-    (:data:`THIN`), under the contours.  ``sheen`` in [0, 1]: how much of
-    the light and shade of the paint's own relief is painted into its colour
-    (:func:`_sheen`).
+    (:data:`THIN`), under the contours, at the scale ``fine`` (a length on the
+    surface: :meth:`cp_stylize.strokes.Brush.line_width`; None: the finest
+    dabs' width).  ``sheen`` in [0, 1]: how much of the light and shade of
+    the paint's own relief is painted into its colour (:func:`_sheen`).
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
-                 recolour=None, jitter=None, detail=0.0, sheen=0.0):
+                 recolour=None, jitter=None, detail=0.0, sheen=0.0, fine=None):
         self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
+        self.fine = fine
         self.detail, self.sheen = float(detail), float(sheen)
         self.contours = float(contours)
         self.ink = None if ink is None else np.asarray(ink, dtype=np.float64)
@@ -132,7 +134,8 @@ class Painting:
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no dab can carry, drawn as a rigger would
-                    finest = dabs.layer_width(finest=True) / np.median(where.lengths)
+                    scale = self.fine if self.fine is not None else np.median(dabs.width[dabs.layer == dabs.layer.max()])
+                    finest = scale / np.median(where.lengths)
                     ink = min(1.0, THIN * self.detail)
                     width = ink * THIN_WIDTH * finest
                     narrow, wide = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
@@ -307,9 +310,9 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         lab_palette = None if palette is None else to_oklab(np.asarray(palette, dtype=np.float64)[:, :3])
         jitter = (brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
     lines = None
+    fine = brush.line_width(texel) if brush is not None else 4 * texel
     if contours > 0:
-        finest = brush.widths(texel)[-1] if brush is not None else 4 * texel
-        lines = contour_field(band, structure, line_width(finest, band.h), fields[-1].direction)
+        lines = contour_field(band, structure, line_width(fine, band.h), fields[-1].direction)
     return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
                     contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter,
-                    detail=detail if dabs is not None else 0.0, sheen=sheen)
+                    detail=detail if dabs is not None else 0.0, sheen=sheen, fine=fine)

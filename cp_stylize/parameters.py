@@ -124,7 +124,7 @@ RUN = {p.name: p for p in (
                                               "of 2); strokes narrower than three texels are not drawn",
               0.003, 0.2, 0.03, "length", precision=4, step=0.1,
               file=("strokes", "width")),
-    Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.8 times "
+    Parameter("stroke_layers", "Layers", "Layers of strokes, coarse to fine: each layer's strokes are 1.45 times "
                                          "narrower and go only where the picture has detail", 1, 4, 3, "count",
               precision=0, step=100,
               file=("strokes", "layers")),

@@ -48,10 +48,15 @@ from .oklab import to_oklab
 from .palette import check_palette, loaded
 from .stroke_field import StrokeField, Swirls, size_smoothings
 
-__all__ = ["Brush", "Dabs", "place_dabs", "chain_links", "LAYER_RATIO"]
+__all__ = ["Brush", "Dabs", "place_dabs", "chain_links", "LAYER_RATIO", "LINE_RATIO"]
 
-#: Each layer's dabs are this many times narrower than the layer's before.
-LAYER_RATIO = 1.8
+#: Each layer's dabs are this many times narrower than the layer's before: the finest of three layers is
+#: half the broadest's width, a mark of its own rather than a hairline among broad ones.
+LAYER_RATIO = 1.45
+#: The picture's thin lines and the contours are drawn at the scale of a brush whose layers are this many times
+#: narrower each (:meth:`Brush.line_width`): a twig or a mast is drawn as fine as it is, whatever the finest
+#: dab's width.
+LINE_RATIO = 1.8
 #: A layer whose dabs would be narrower than this many texels is left out (it could not be drawn).
 MIN_TEXELS = 3.0
 #: Dabs of the first layer cover each point of the surface about this many times.
@@ -107,11 +112,16 @@ class Brush:
     fidelity: float = 0.0
     broad: float = 0.0
 
-    def widths(self, texel):
-        """The dab widths of the layers that can be drawn with texels ``texel`` long."""
-        widths = [self.width / LAYER_RATIO**k for k in range(self.layers)]
+    def widths(self, texel, ratio=LAYER_RATIO):
+        """The dab widths of the layers that can be drawn with texels ``texel`` long (each ``ratio`` times
+        narrower than the one before)."""
+        widths = [self.width / ratio**k for k in range(self.layers)]
         drawn = [w for w in widths if w >= MIN_TEXELS * texel]
         return drawn or widths[:1]
+
+    def line_width(self, texel):
+        """The scale the picture's thin lines and the contours are drawn at (:data:`LINE_RATIO`)."""
+        return self.widths(texel, LINE_RATIO)[-1]
 
     def lengths(self, texel):
         """The dab lengths of the layers of :meth:`widths`."""
@@ -179,10 +189,9 @@ class Dabs:
         """Each dab's length over its width (n,)."""
         return self.length / self.width
 
-    def layer_width(self, finest=False):
-        """The median width of the first (broadest) layer's dabs, or with ``finest`` of the finest layer's."""
-        layer = self.layer.max() if finest else self.layer.min()
-        return float(np.median(self.width[self.layer == layer]))
+    def layer_width(self):
+        """The median width of the first (broadest) layer's dabs."""
+        return float(np.median(self.width[self.layer == self.layer.min()]))
 
 
 def _spread(points, cell, rng):
