@@ -134,7 +134,7 @@ class Painting:
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no dab can carry, drawn as a rigger would
-                    scale = self.fine if self.fine is not None else np.median(dabs.width[dabs.layer == dabs.layer.max()])
+                    scale = self.fine if self.fine is not None else dabs.layer_width(finest=True)
                     finest = scale / np.median(where.lengths)
                     ink = min(1.0, THIN * self.detail)
                     width = ink * THIN_WIDTH * finest

@@ -16,10 +16,11 @@ take the same colour.  :func:`map_to_palette` works in OKLab
   picture's colours), their hue difference counts too, so a yellow keeps to
   the palette's yellows and ochres, a red door to its warmest colour, a
   grey-blue overcast sky to the painting's blues, while a neutral grey
-  takes whichever colour the palette gives its tone.  Hue counts in the picture's lighter tones only (from
-  the tone rank :data:`HUE_FROM`, fully from :data:`HUE_FULL`): a dark brown
-  or a dark green keeps to the palette's colours of its tone, rather than
-  turn the palette's only warm colours, its light yellows, into stains.
+  takes whichever colour the palette gives its tone.  Hue counts in the
+  picture's lighter tones only (from the tone rank :data:`HUE_FROM`, fully
+  from :data:`HUE_FULL`): a dark brown or a dark green keeps to the
+  palette's colours of its tone, rather than turn the palette's only warm
+  colours, its light yellows, into stains.
 
 ``keep_values`` keeps the picture's own light and dark: from 0 (the equalised
 ranks above) to 1, where a colour's place among the palette's tones is where

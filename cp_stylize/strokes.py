@@ -189,9 +189,10 @@ class Dabs:
         """Each dab's length over its width (n,)."""
         return self.length / self.width
 
-    def layer_width(self):
-        """The median width of the first (broadest) layer's dabs."""
-        return float(np.median(self.width[self.layer == self.layer.min()]))
+    def layer_width(self, finest=False):
+        """The median width of the first (broadest) layer's dabs, or with ``finest`` of the finest layer's."""
+        layer = self.layer.max() if finest else self.layer.min()
+        return float(np.median(self.width[self.layer == layer]))
 
 
 def _spread(points, cell, rng):
