@@ -1386,10 +1386,12 @@ def test_presets_keep_the_panels_limits(addon, tmp_path, text, message):
 
 
 def test_a_run_estimated_above_the_time_limit_is_refused(addon, monkeypatch):
-    from cp_stylize.blender import stylize
+    from cp_stylize.blender import operators, stylize
 
     sphere(material=image_material("Painted", halves("source")))
     addon.quality, addon.time, addon.mode = "HIGH", 0.05, "ced"
+    # a computer four times slower than the reference one, so that the estimate runs to hours on any machine
+    monkeypatch.setattr(operators, "machine_speed", lambda: 4.0)
     monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
     before = snapshot()
     message = run_error()
