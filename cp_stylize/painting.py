@@ -17,7 +17,8 @@ from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab, within_gamut
-from .canvas import THICKNESS, Texels, paint
+from .canvas import FINE_PAINT, THICKNESS, Texels, paint
+from .rigger import HELD, line_dabs
 from .lines import inked
 from .stroke_field import StrokeField
 from .strokes import place_dabs
@@ -124,27 +125,23 @@ class Painting:
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
-            if self.sheen > 0:
-                widest = dabs.layer_width()
-                reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
-                out = _sheen(out, height, where, THICKNESS * widest, self.sheen, reach)
             if source is not None:
                 # the picture's lightness at the texture's resolution over the band's: its detail
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
-                    # the thin lines no dab can carry, drawn as a rigger would
+                    # the thin lines no broad dab can carry, laid with a rigger
                     scale = self.fine if self.fine is not None else dabs.layer_width(finest=True)
                     finest = scale / np.median(where.lengths)
-                    ink = min(1.0, THIN * self.detail)
-                    width = ink * THIN_WIDTH * finest
-                    narrow, wide = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
-                                              max(1.5, THIN_RADIUS * finest), [THIN_PRESS * width, width])
                     wavelength = PRESSURE * finest * float(np.median(where.lengths))
-                    line = narrow.copy()
-                    swells = wide > narrow                   # lines cover few of the texels
-                    line[swells] += _pressure(points[swells], wavelength) * (wide - narrow)[swells]
-                    out = self._inked(out, ink * line)
+                    ink = min(1.0, THIN * self.detail)
+                    lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
+                    out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
+                                               max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs)
+            if self.sheen > 0:
+                widest = dabs.layer_width()
+                reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
+                out = _sheen(out, height, where, THICKNESS * widest, self.sheen, reach)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
@@ -157,6 +154,36 @@ class Painting:
         painted[:, :3] = out
         return painted, height
 
+    def _rigged(self, out, height, lined, where, faces, barys, wavelength, texels_wide, ink, press, dabs):
+        """``out`` and ``height`` with the lines ``lined`` (M,) laid over them as a rigger's dabs
+        (:func:`cp_stylize.rigger.line_dabs`) ``texels_wide`` texels wide at full pressure (at least ``press``
+        of it), ``ink`` strong."""
+        on = lined >= HELD
+        width = np.zeros(len(lined))
+        width[on] = (texels_wide * where.lengths[on]
+                     * (press + (1.0 - press) * _pressure(where.points[on], wavelength)))
+        line, at, strength = line_dabs(lined, where.points, where.normals, faces, barys, where.pieces, width,
+                                       seed=int(dabs.phase.size), layer=int(dabs.layer.max()) + 1)
+        if line is None:
+            return out, height
+        under = out[at].astype(np.float64)
+        line.colour = under + (ink * np.clip(2.0 * strength, 0.0, 1.0))[:, None] * (self._line_paint(under) - under)
+        out, raised = paint(line, where, out, np.zeros((len(out), 3)), source=np.zeros((len(line), 3)))
+        # a rigger's paint is thin: as thick as a dab of its width (canvas.FINE_PAINT)
+        height = height + raised * (line.layer_width() / dabs.layer_width()) ** FINE_PAINT
+        return out, height
+
+    def _line_paint(self, colours):
+        """The dark paint lines are laid in over sRGB ``colours`` (M, 3): the ink, keeping :data:`LINE_HUE`
+        of their own chroma (as a dark paint mixed on the canvas), or without an ink, their own darkened."""
+        if self.ink is None:
+            return inked(colours, np.ones(len(colours)), None)
+        ink = to_oklab(self.ink)
+        paint = np.empty((len(colours), 3))
+        paint[:, 0] = ink[0]
+        paint[:, 1:] = ink[1:] + LINE_HUE * (to_oklab(colours)[:, 1:] - ink[1:])
+        return from_oklab(within_gamut(paint))
+
     def _inked(self, colours, amount):
         """sRGB ``colours`` (M, 3) inked ``amount`` (M,) in [0, 1]: towards the ink (keeping :data:`LINE_HUE` of
         their own chroma, as a dark paint mixed on the canvas), or darkened without one."""
@@ -164,11 +191,7 @@ class Painting:
             return inked(colours, amount, None)
         out = np.array(colours, dtype=np.float64)
         drawn = amount > 0                              # lines cover few of the texels
-        ink = to_oklab(self.ink)
-        paint = np.empty((int(drawn.sum()), 3))
-        paint[:, 0] = ink[0]
-        paint[:, 1:] = ink[1:] + LINE_HUE * (to_oklab(out[drawn])[:, 1:] - ink[1:])
-        out[drawn] = inked(out[drawn], amount[drawn], from_oklab(within_gamut(paint)))
+        out[drawn] = inked(out[drawn], amount[drawn], self._line_paint(out[drawn]))
         return out
 
 

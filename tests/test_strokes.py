@@ -584,3 +584,26 @@ def test_a_painting_with_sheen_lights_its_dabs_from_their_own_relief_and_changes
     assert (change > 0.01).sum() > 10 and (change < -0.01).sum() > 10   # light and shade on the dab,
     away = texels.points[:, 1] > -0.3                                # and none away from it
     assert away.sum() > 1000 and np.array_equal(lit[away], plain[away])
+
+
+def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relief(sphere):
+    from cp_stylize.painting import Painting
+
+    mesh, band, atlas, texels = sphere
+    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.7, 0.7, 0.7))
+    corners = mesh.vertices[mesh.input_faces]
+
+    def picture(faces, barys):                 # light grey, with a thin dark line along the equator
+        z = np.einsum("nk,nk->n", barys, corners[faces][:, :, 2])
+        return np.where(np.abs(z) < 0.015, 0.15, 0.7)[:, None] * np.ones(3)
+
+    base = np.full((len(texels.points), 3), 0.7)
+    where = (texels.flat, texels.points, *atlas_points(mesh, atlas, 4)[2:])
+    plain, _ = Painting(mesh, atlas, one, source=picture)(where, base, None)
+    lined, height = Painting(mesh, atlas, one, source=picture, detail=0.4, fine=0.1)(where, base, None)
+    z, y = texels.points[:, 2], texels.points[:, 1]
+    on, off = np.abs(z) < 0.008, np.abs(z) > 0.1
+    assert on.sum() > 100 and (plain - lined)[on].mean() > 0.2          # the line is painted dark
+    assert np.abs(lined - plain)[off].max() < 1e-6                      # and nothing away from it
+    away = y > -0.5                                                      # far from the one dab
+    assert np.mean(height[on & away] > 0) > 0.9 and np.all(height[off & away] == 0)   # its paint stands

@@ -1,0 +1,95 @@
+"""The picture's thin lines laid as a rigger brush's strokes.
+
+A painter does not trace a crane's jib or a twig pixel by pixel: a fine,
+long-haired brush (a rigger) lays it in a few overlapping strokes, each
+straight or gently curved, swelling and tapering, its tail running dry.
+:func:`line_dabs` turns the thin dark lines that
+:func:`cp_stylize.contours.thin_lines` finds at an atlas's texels into such
+strokes: dabs centred on the line, each along the line's own direction there
+(the principal axis of the line's texels about it, on the surface, so the
+same in every chart), as long as the line runs (up to :data:`LENGTH` widths),
+and as wide as the brush's pressure makes it.  :func:`cp_stylize.canvas.paint`
+draws them as it draws every other dab: with their tapers, bristle streaks,
+dry tails and relief.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .arrays import ball_pairs
+from .strokes import Dabs
+
+__all__ = ["line_dabs", "HELD", "LENGTH", "STEP"]
+
+#: A texel is on a line where the line's ink there is at least this.
+HELD = 0.5
+#: A line's dabs are at most this many of its widths long ...
+LENGTH = 7.0
+#: ... and laid about this share of that length apart (at most one in each cube of that side), so that
+#: each overlaps the next and a line runs on without gaps.
+STEP = 0.3
+#: A dab is laid only where the line's texels about it lie along one direction: the spread across it is at
+#: most this share of the spread along it (a blot of dark texels is not a line).
+ELONGATED = 0.5
+
+
+def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, layer=0):
+    """Dabs (:class:`~cp_stylize.strokes.Dabs`, colour unset: zeros) along the lines of ``ink`` (M,) in
+    [0, 1] at texels with surface ``points`` and unit ``normals`` (M, 3), input ``faces`` (M,), barycentric
+    coordinates ``barys`` (M, 3) and mesh ``pieces`` (M,); ``width`` (M,): the brush's width at each texel, a
+    length on the surface.  Each dab takes the texel nearest its middle as its centre; None where no line
+    is found.  Also returned: each dab's centre texel (n,) and its ink (n,), the mean of ``ink`` over its
+    line.
+    """
+    on = np.flatnonzero(ink >= HELD)
+    if len(on) < 3:
+        return None, None, None
+    at = np.asarray(points, dtype=np.float64)[on]
+    reach = 0.5 * LENGTH * float(np.median(width[on]))
+    rng = np.random.default_rng([int(seed), 31])
+    order = rng.permutation(len(on))
+    key = np.floor(at[order] / (STEP * 2.0 * reach)).astype(np.int64)
+    _, first = np.unique(key, axis=0, return_index=True)
+    seeds = np.sort(order[first])
+    tree = cKDTree(at)
+    i, j = ball_pairs(tree, at[seeds], reach)
+    weight = ink[on][j]
+    total = np.bincount(i, weights=weight, minlength=len(seeds))
+    mean = np.stack([np.bincount(i, weights=weight * at[j, k], minlength=len(seeds)) for k in range(3)], 1)
+    mean /= total[:, None]
+    offset = at[j] - mean[i]
+    spread = np.zeros((len(seeds), 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            spread[:, a, b] = spread[:, b, a] = np.bincount(i, weights=weight * offset[:, a] * offset[:, b],
+                                                            minlength=len(seeds))
+    values, vectors = np.linalg.eigh(spread)
+    normal = np.asarray(normals, dtype=np.float64)[on][seeds]
+    direction = vectors[:, :, 2]
+    direction -= np.einsum("ij,ij->i", direction, normal)[:, None] * normal
+    size = np.linalg.norm(direction, axis=1)
+    direction /= np.maximum(size, 1e-12)[:, None]
+    lined = (values[:, 1] <= ELONGATED**2 * values[:, 2]) & (size > 0.5)
+    # the dab runs over the line's texels about it, from the first to the last along its direction
+    t = np.einsum("ij,ij->i", offset, direction[i])
+    low = np.full(len(seeds), np.inf)
+    high = np.full(len(seeds), -np.inf)
+    np.minimum.at(low, i, t)
+    np.maximum.at(high, i, t)
+    middle = mean + (0.5 * (low + high))[:, None] * direction
+    _, centre = tree.query(middle)
+    brush = width[on][centre]
+    length = np.clip(high - low + brush, 2.0 * brush, 2.0 * reach)
+    keep = np.flatnonzero(lined)
+    if not len(keep):
+        return None, None, None
+    centre = on[centre[keep]]
+    n = len(keep)
+    dabs = Dabs(centre=np.asarray(points, dtype=np.float64)[centre], normal=np.asarray(normals, np.float64)[centre],
+                direction=direction[keep], length=length[keep], width=brush[keep], colour=np.zeros((n, 3)),
+                piece=np.asarray(pieces)[centre], phase=rng.uniform(0.0, 2.0 * np.pi, n),
+                layer=np.full(n, layer, dtype=np.int32), face=np.asarray(faces)[centre],
+                bary=np.asarray(barys, dtype=np.float64)[centre])
+    return dabs, centre, (total / np.maximum(np.bincount(i, minlength=len(seeds)), 1))[keep]
