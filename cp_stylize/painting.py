@@ -167,7 +167,7 @@ class Painting:
         if line is None:
             return out, height
         under = out[at].astype(np.float64)
-        line.colour = under + (ink * np.clip(2.0 * strength, 0.0, 1.0))[:, None] * (self._line_paint(under) - under)
+        line.colour = under + (np.sqrt(ink) * np.clip(2.0 * strength, 0.0, 1.0))[:, None] * (self._line_paint(under) - under)
         out, raised = paint(line, where, out, np.zeros((len(out), 3)), source=np.zeros((len(line), 3)))
         # a rigger's paint is thin: as thick as a dab of its width (canvas.FINE_PAINT)
         height = height + raised * (line.layer_width() / dabs.layer_width()) ** FINE_PAINT

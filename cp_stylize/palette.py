@@ -246,7 +246,10 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hu
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
     ab *= (MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0))[:, None]    # a grey stays a muted colour
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
-    own_ab = own_hue * chroma[:, None] if hue_snap > 0 else lab[:, 1:]
+    # snapped, the picture's hue keeps the palette's chroma where the picture's own is weaker: a muted photograph
+    # brings back its lightness without dulling the palette's yellows to khaki
+    own_ab = (own_hue * np.maximum(chroma[:, None], np.hypot(ab[:, 0], ab[:, 1])[:, None]) if hue_snap > 0
+              else lab[:, 1:])
     return np.column_stack([(1.0 - own) * lightness + own * lab[:, 0], (1.0 - own) * ab + own * own_ab])
 
 

@@ -8,7 +8,7 @@ straight or gently curved, swelling and tapering, its tail running dry.
 strokes: dabs centred on the line, each along the line's own direction there
 (the principal axis of the line's texels about it, on the surface, so the
 same in every chart), as long as the line runs (up to :data:`LENGTH` widths),
-and as wide as the brush's pressure makes it.  :func:`cp_stylize.canvas.paint`
+and as wide as the brush's pressure makes it, and a little out of true (:data:`WOBBLE`).  :func:`cp_stylize.canvas.paint`
 draws them as it draws every other dab: with their tapers, bristle streaks,
 dry tails and relief.
 """
@@ -30,6 +30,9 @@ LENGTH = 7.0
 #: ... and laid about this share of that length apart (at most one in each cube of that side), so that
 #: each overlaps the next and a line runs on without gaps.
 STEP = 0.3
+#: Each dab is turned from the line's direction by up to this angle (radians) either way, at random: a hand
+#: lays a long straight line as strokes a little out of true, not as a ruled line.
+WOBBLE = 0.06
 #: A dab is laid only where the line's texels about it lie along one direction: the spread across it is at
 #: most this share of the spread along it (a blot of dark texels is not a line).
 ELONGATED = 0.5
@@ -87,8 +90,13 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
         return None, None, None
     centre = on[centre[keep]]
     n = len(keep)
-    dabs = Dabs(centre=np.asarray(points, dtype=np.float64)[centre], normal=np.asarray(normals, np.float64)[centre],
-                direction=direction[keep], length=length[keep], width=brush[keep], colour=np.zeros((n, 3)),
+    normal = np.asarray(normals, np.float64)[centre]
+    turn = rng.uniform(-WOBBLE, WOBBLE, n)[:, None]
+    direction = np.cos(turn) * direction[keep] + np.sin(turn) * np.cross(normal, direction[keep])
+    direction -= np.einsum("ij,ij->i", direction, normal)[:, None] * normal     # in the centre's tangent plane
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    dabs = Dabs(centre=np.asarray(points, dtype=np.float64)[centre], normal=normal, direction=direction,
+                length=length[keep], width=brush[keep], colour=np.zeros((n, 3)),
                 piece=np.asarray(pieces)[centre], phase=rng.uniform(0.0, 2.0 * np.pi, n),
                 layer=np.full(n, layer, dtype=np.int32), face=np.asarray(faces)[centre],
                 bary=np.asarray(barys, dtype=np.float64)[centre])

@@ -182,3 +182,21 @@ def test_tone_ranks_spread_the_tones_but_keep_a_flat_region_one_tone():
     mixed = np.concatenate([np.full(50000, 0.3), rng.random(50000)])
     r = tone_ranks(mixed)
     assert np.ptp(r[:50000]) == 0 and np.all(np.diff(np.sort(r)) <= 4.0 / 256 + 1e-9)
+
+
+def test_fidelity_above_a_half_brings_back_a_muted_pictures_lightness_not_its_dull_chroma_when_hues_snap():
+    from cp_stylize.oklab import from_oklab
+
+    palette = _rgb(["#3b2412", "#5c98a0", "#d99a2b", "#f0b81c", "#f9eaa0"])
+    khaki = from_oklab(np.array([[0.55, 0.0, 0.03], [0.75, 0.004, 0.04], [0.85, 0.0, 0.035]]))  # dull yellows
+    chroma = {}
+    for fidelity in (0.5, 0.6, 0.8):
+        lab = to_oklab(map_to_palette(khaki, palette, fidelity=fidelity, hue_snap=1.0))
+        chroma[fidelity] = np.hypot(lab[:, 1], lab[:, 2])
+        assert np.all(hue_difference(lab, to_oklab(_rgb(["#f0b81c"]))) < 25)         # the palette's yellow hue
+    assert np.all(chroma[0.6] > chroma[0.5] - 2e-3) and np.all(chroma[0.8] > chroma[0.5] - 2e-3)
+    assert np.all(chroma[0.5] > 0.08)                                                # a yellow, not khaki
+    lab = to_oklab(map_to_palette(khaki, palette, fidelity=1.0, hue_snap=1.0))
+    assert np.allclose(lab[:, 0], to_oklab(khaki)[:, 0], atol=1e-3)                # its own lightness at 1
+    plain = to_oklab(map_to_palette(khaki, palette, fidelity=1.0))                     # without snapping, its own
+    assert np.allclose(plain, to_oklab(khaki), atol=1e-3)                            # colours at 1
