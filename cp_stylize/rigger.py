@@ -33,6 +33,10 @@ STEP = 0.3
 #: Each dab is turned from the line's direction by up to this angle (radians) either way, at random: a hand
 #: lays a long straight line as strokes a little out of true, not as a ruled line.
 WOBBLE = 0.06
+#: A dab is laid only where its line runs on for at least this many of its widths (about it, either way): a
+#: fleck or a short
+#: fragment of a busy texture is left to the dabs of colour, not drawn as a scratch.
+RUN = 6.0
 #: A dab is laid only where the line's texels about it lie along one direction: the spread across it is at
 #: most this share of the spread along it (a blot of dark texels is not a line).
 ELONGATED = 0.5
@@ -76,16 +80,12 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     direction /= np.maximum(size, 1e-12)[:, None]
     lined = (values[:, 1] <= ELONGATED**2 * values[:, 2]) & (size > 0.5)
     # the dab runs over the line's texels about it, from the first to the last along its direction
-    t = np.einsum("ij,ij->i", offset, direction[i])
-    low = np.full(len(seeds), np.inf)
-    high = np.full(len(seeds), -np.inf)
-    np.minimum.at(low, i, t)
-    np.maximum.at(high, i, t)
+    low, high = _span(i, np.einsum("ij,ij->i", offset, direction[i]), len(seeds))
     middle = mean + (0.5 * (low + high))[:, None] * direction
     _, centre = tree.query(middle)
     brush = width[on][centre]
     length = np.clip(high - low + brush, 2.0 * brush, 2.0 * reach)
-    keep = np.flatnonzero(lined)
+    keep = np.flatnonzero(lined & (_run(tree, at, seeds, direction, RUN * brush) >= RUN * brush))
     if not len(keep):
         return None, None, None
     centre = on[centre[keep]]
@@ -101,3 +101,19 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
                 layer=np.full(n, layer, dtype=np.int32), face=np.asarray(faces)[centre],
                 bary=np.asarray(barys, dtype=np.float64)[centre])
     return dabs, centre, (total / np.maximum(np.bincount(i, minlength=len(seeds)), 1))[keep]
+
+
+def _run(tree, at, seeds, direction, reach):
+    """How far the line of points ``at`` (a k-d ``tree`` of them) runs along each ``direction`` (n, 3) within
+    ``reach`` (n,) of the points ``seeds`` (n,): the spread along it of the points within that distance."""
+    i, j = ball_pairs(tree, at[seeds], reach)
+    low, high = _span(i, np.einsum("ij,ij->i", at[j] - at[seeds][i], direction[i]), len(seeds))
+    return high - low
+
+
+def _span(i, t, n):
+    """The least and greatest of the values ``t`` of each of ``n`` groups (``i``: each value's group)."""
+    low, high = np.full(n, np.inf), np.full(n, -np.inf)
+    np.minimum.at(low, i, t)
+    np.maximum.at(high, i, t)
+    return low, high

@@ -70,6 +70,12 @@ DETAIL = 0.025
 #: they carry an edge or a feature the broad strokes could not (where those stopped, or crossed it), and
 #: leave a texture finer than either brush to the broad paint.
 MISSED = 0.04
+#: Dabs placed at random leave some of the canvas bare however many there are (with twice the surface's
+#: area in dabs, about an eighth of it): a last layer of the finest dabs goes where the layers before it left
+#: the canvas more than this share bare, so that no gap shows the unpainted colours between strokes.
+FILL = 0.5
+#: ... in this many passes, each where the ones before left it bare.
+FILLS = 2
 #: Each dab's length varies by this share about the brush's.
 LENGTH_SPREAD = 0.12
 #: Each stroke's size (its dabs' length and width alike, so their shape stays) varies by this share about
@@ -245,13 +251,22 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         at_size = _at_sizes(band, paint, widths)                    # the paint's colours at each layer's size
         clip_by = np.stack([structure[:, :3], paint], axis=1)      # what a dab is clipped by: the picture, its paint
     parts, laid = [], []
-    for layer, (width, length, lines) in enumerate(zip(widths, lengths, fields)):
-        links = chain_links(brush.chain, layer) if band.face is not None else 1
+    # the layers, broad to fine, then the finest dabs again where the canvas is still bare (FILL)
+    for layer, (width, length, lines) in enumerate(zip(widths + widths[-1:] * FILLS, lengths + lengths[-1:] * FILLS,
+                                                       fields + fields[-1:] * FILLS)):
+        filling = layer >= len(widths)
+        links = (chain_links(brush.chain, layer) if band.face is not None else 1) if not filling else 1
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
         points, faces, bary = mesh.sample(n, rng)
         keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
         points, faces, bary = points[keep], faces[keep], bary[keep]
-        if layer > 0:
+        if filling:
+            bare = _bare(parts, points)
+            chosen = bare > FILL
+            if not chosen.any():
+                break
+            points, faces, bary = points[chosen], faces[chosen], bary[chosen]
+        elif layer > 0:
             # finer dabs where the colours change by more than DETAIL across a dab's width ...
             chance = np.clip(lines.strength_at(points) * width / DETAIL - 1.0, 0.0, 1.0)
             if at_size is not None:
@@ -289,7 +304,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
         first, second = loaded(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
-        if at_size is not None and layer + 1 < len(widths):
+        if at_size is not None and layer + 1 < len(widths) and not filling:
             # the picture and its paint at its centre (what it is clipped by), and the paint at its size
             # (the mean it picks up)
             near = lines._nearest(points)
@@ -298,6 +313,13 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
                           pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend,
                           np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends, second))
     return Dabs.concatenate(parts)
+
+
+def _bare(parts, points):
+    """How much of the canvas the dabs of ``parts`` (:class:`Dabs`, in painting order) leave bare at surface
+    ``points`` (M, 3), by their footprints alone (1: none covers the point; 0: one does)."""
+    zeros = [(np.zeros((len(p), 1, 3)), np.zeros((len(p), 3))) for p in parts]
+    return _painted(parts, zeros, points, np.zeros((len(points), 1, 3)), np.zeros((len(points), 3)))[1]
 
 
 def _at_sizes(band, values, widths):

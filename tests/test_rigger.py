@@ -59,3 +59,11 @@ def test_a_blot_and_faint_ink_lay_no_dabs():
     assert _plane(blot)[1][0] is None
     faint = np.where(np.abs(rows - 60) <= 1, 0.4, 0.0)                 # a line too faint to hold
     assert _plane(faint)[1][0] is None
+
+
+def test_a_fleck_too_short_to_be_a_line_lays_no_dabs():
+    rows, cols = np.mgrid[0:SIZE, 0:SIZE]
+    fleck = ((np.abs(rows - 60) <= 1) & (np.abs(cols - 60) <= 4)).astype(float)   # 9 texels: under 6 widths
+    assert _plane(fleck)[1][0] is None
+    dash = ((np.abs(rows - 60) <= 1) & (np.abs(cols - 60) <= 8)).astype(float)    # 17 texels: a line
+    assert _plane(dash)[1][0] is not None

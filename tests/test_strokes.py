@@ -607,3 +607,20 @@ def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relie
     assert np.abs(lined - plain)[off].max() < 1e-6                      # and nothing away from it
     away = y > -0.5                                                      # far from the one dab
     assert np.mean(height[on & away] > 0) > 0.9 and np.all(height[off & away] == 0)   # its paint stands
+
+
+def test_the_last_passes_of_fine_dabs_leave_no_bare_canvas_between_the_strokes(sphere, monkeypatch):
+    from cp_stylize import strokes
+    from cp_stylize.strokes import _bare
+
+    mesh, band, _, _ = sphere
+    grey = np.full((band.size, 3), 0.5)
+    points = mesh.sample(3000, np.random.default_rng(1))[0]
+    brush = Brush(width=0.12, length=0.5, layers=1, chain=3)
+
+    def bare():
+        return np.mean(_bare([place_dabs(mesh, band, grey, brush, texel=0.01)], points) > 0.5)
+
+    filled = bare()
+    monkeypatch.setattr(strokes, "FILLS", 0)
+    assert filled < 0.025 and bare() > 0.04            # random strokes alone leave gaps; the fill closes them
