@@ -257,14 +257,18 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         filling = layer >= len(widths)
         links = (chain_links(brush.chain, layer) if band.face is not None else 1) if not filling else 1
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
-        points, faces, bary = mesh.sample(n, rng)
-        keep = _spread(points, width * np.sqrt(2.5 * links / COVER), rng)
+        # a filling pass draws from its own stream, each place's draws made before the bare ones are chosen:
+        # where the strokes before left no gap (or the same gaps), it lays the same dabs
+        stream = np.random.default_rng([int(brush.seed), 6, layer]) if filling else rng
+        points, faces, bary = mesh.sample(n, stream)
+        keep = _spread(points, width * np.sqrt(2.5 * links / COVER), stream)
         points, faces, bary = points[keep], faces[keep], bary[keep]
+        draw = rng
         if filling:
-            bare = _bare(parts, points)
-            chosen = bare > FILL
+            chosen = _bare(parts, points) > FILL
             if not chosen.any():
                 break
+            draw = _Drawn(stream.random((len(points), 7))[chosen])
             points, faces, bary = points[chosen], faces[chosen], bary[chosen]
         elif layer > 0:
             # finer dabs where the colours change by more than DETAIL across a dab's width ...
@@ -284,11 +288,11 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad, level)
         # where the picture has little structure, each dab turns a little its own way: a flat patch gets a
         # painter's varied strokes, not rings of parallel ones
-        turn = WANDER * (1.0 - lines.confidence[near]) * (2.0 * rng.random(len(points)) - 1.0)
+        turn = WANDER * (1.0 - lines.confidence[near]) * (2.0 * draw.random(len(points)) - 1.0)
         direction = np.cos(turn)[:, None] * direction + np.sin(turn)[:, None] * np.cross(normals, direction)
-        length = length * (1.0 + LENGTH_SPREAD * (2.0 * rng.random(len(points)) - 1.0))
-        draws, phase = rng.random((len(points), 3)), 2 * np.pi * rng.random(len(points))
-        size = 1.0 + SIZE_SPREAD * (2.0 * rng.random(len(points)) - 1.0)
+        length = length * (1.0 + LENGTH_SPREAD * (2.0 * draw.random(len(points)) - 1.0))
+        draws, phase = draw.random((len(points), 3)), 2 * np.pi * draw.random(len(points))
+        size = 1.0 + SIZE_SPREAD * (2.0 * draw.random(len(points)) - 1.0)
         length, width = length * size, width * size
 
         def along(at, normals, which):
@@ -313,6 +317,20 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
                           pieces.astype(np.int64), phase, np.full(count, layer), faces, bary, draws, bend,
                           np.full(count, HEAD_END | TAIL_END, np.int8) if ends is None else ends, second))
     return Dabs.concatenate(parts)
+
+
+class _Drawn:
+    """Uniform draws made before, one row (k,) for each place, handed out column by column as a NumPy
+    generator's ``random`` would hand out new ones."""
+
+    def __init__(self, values):
+        self.values, self.used = values, 0
+
+    def random(self, shape):
+        columns = int(np.prod(shape[1:])) if isinstance(shape, tuple) else 1
+        out = self.values[:, self.used:self.used + columns]
+        self.used += columns
+        return out.reshape(shape)
 
 
 def _bare(parts, points):

@@ -214,8 +214,11 @@ def test_the_around_direction_runs_the_parallels_of_its_axis(sphere):
     assert pole.any() and np.all(length[pole] < 0.1 * FALLBACK_TRUST)
 
 
-def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere):
+def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_not(sphere, monkeypatch):
+    from cp_stylize import strokes
+
     mesh, band, atlas, texels = sphere
+    monkeypatch.setattr(strokes, "FILLS", 0)        # no filling dabs, which go where each field's strokes left gaps
     colours = _stripes(band, [0, 0, 1])                    # stripes round the z axis: strokes run around it
     brush = Brush(width=0.12, length=0.48, layers=1, chain=1, seed=3)   # single dabs: the same centres whatever
     #                                                                   the field
@@ -231,10 +234,12 @@ def test_a_fallback_field_yields_to_the_pictures_structure_and_a_sure_one_does_n
     assert np.median(np.abs(sure.direction[equator, 2])) > 0.95     # a sure field wins over the stripes
 
 
-def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere):
+def test_swirls_turn_strokes_in_the_light_and_leave_the_dark_calm(sphere, monkeypatch):
+    from cp_stylize import strokes
     from cp_stylize.oklab import to_oklab
 
     mesh, band, atlas, texels = sphere
+    monkeypatch.setattr(strokes, "FILLS", 0)        # no filling dabs, which go where each field's strokes left gaps
     for grey, calm in ((0.08, True), (0.85, False)):
         colours = np.full((band.size, 3), grey, np.float32)
         colours += 0.01 * np.random.default_rng(2).random(colours.shape, np.float32)   # no structure: noise
