@@ -63,9 +63,6 @@ SHEEN_LIGHT, SHEEN_SHADE = 0.5, 0.4
 SHEEN_REACH = 0.05
 #: Sheen lights this many texels at a time (its memory is a few hundred bytes a texel of them).
 SHEEN_CHUNK = 1 << 18
-#: A dab is clipped against the picture averaged over this share of the finest dabs' width (a box in the atlas):
-#: it stops at the picture's edges, not at every leaf of a busy texture.
-CLIP_SMOOTH = 0.0
 
 
 class Painting:
@@ -117,16 +114,13 @@ class Painting:
             if self.source is not None:
                 picture = np.asarray(self.source(faces, barys), dtype=np.float64)[:, :3]
                 reference, source = picture, np.asarray(self.source(dabs.face, dabs.bary))[:, :3]
-                if CLIP_SMOOTH > 0:
-                    across = CLIP_SMOOTH * dabs.layer_width(finest=True) / np.median(where.lengths)
-                    reference = _box(picture, flat, self.atlas.size, max(1, int(round(across))))
                 if self.recolour is not None:
                     # a dab stops where the picture or its paint changes: a road's marking a little lighter
                     # than the road, painted in the palette's yellow, is not painted over in its umber.  The
                     # paint is the band's, smooth (the picture's texel noise mapped onto the palette would
                     # flicker the clip into speckle), at the texels and at the texel nearest each dab's centre
                     _, nearest = where.tree.query(dabs.centre)
-                    reference, source = np.hstack([reference, out]), np.hstack([source, out[nearest]])
+                    reference, source = np.hstack([picture, out]), np.hstack([source, out[nearest]])
                 under = to_oklab(picture if self.recolour is None else self.recolour(picture))
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
@@ -278,19 +272,16 @@ def _with_grain(painted, fine, strength):
     return from_oklab(lab)
 
 
-def _box(values, flat, size, across=3):
+def _box(values, flat, size):
     """``values`` (M,) at the atlas texels ``flat`` (M,) averaged over each texel's 3 x 3 neighbours in
     the atlas (texels outside ``flat`` count as 0): a line's edge is anti-aliased over a texel.  The
     margin texels around each chart continue the surface, so a chart's edge reads its neighbours on the
     surface."""
     from scipy import ndimage
 
-    values = np.asarray(values)
-    image = np.zeros((size * size,) + values.shape[1:])
+    image = np.zeros(size * size)
     image[flat] = values
-    image = image.reshape((size, size) + values.shape[1:])
-    box = (across, across) + (1,) * (values.ndim - 1)
-    return ndimage.uniform_filter(image, box, mode="constant").reshape((size * size,) + values.shape[1:])[flat]
+    return ndimage.uniform_filter(image.reshape(size, size), 3, mode="constant").ravel()[flat]
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
