@@ -8,9 +8,9 @@ straight or gently curved, swelling and tapering, its tail running dry.
 strokes: dabs centred on the line, each along the line's own direction there
 (the principal axis of the line's texels about it, on the surface, so the
 same in every chart), as long as the line runs (up to :data:`LENGTH` widths),
-and as wide as the brush's pressure makes it, and a little out of true (:data:`WOBBLE`).  :func:`cp_stylize.canvas.paint`
-draws them as it draws every other dab: with their tapers, bristle streaks,
-dry tails and relief.
+as wide as the brush's pressure makes it, and a little out of true
+(:data:`WOBBLE`).  :func:`cp_stylize.canvas.paint` draws them as it draws
+every other dab: with their tapers, bristle streaks, dry tails and relief.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .arrays import ball_pairs
-from .strokes import Dabs
+from .strokes import Dabs, _spread
 
 __all__ = ["line_dabs", "HELD", "LENGTH", "STEP"]
 
@@ -34,8 +34,7 @@ STEP = 0.3
 #: lays a long straight line as strokes a little out of true, not as a ruled line.
 WOBBLE = 0.06
 #: A dab is laid only where its line runs on for at least this many of its widths (about it, either way): a
-#: fleck or a short
-#: fragment of a busy texture is left to the dabs of colour, not drawn as a scratch.
+#: fleck or a short fragment of a busy texture is left to the dabs of colour, not drawn as a scratch.
 RUN = 6.0
 #: A dab is laid only where the line's texels about it lie along one direction: the spread across it is at
 #: most this share of the spread along it (a blot of dark texels is not a line).
@@ -56,10 +55,7 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     at = np.asarray(points, dtype=np.float64)[on]
     reach = 0.5 * LENGTH * float(np.median(width[on]))
     rng = np.random.default_rng([int(seed), 31])
-    order = rng.permutation(len(on))
-    key = np.floor(at[order] / (STEP * 2.0 * reach)).astype(np.int64)
-    _, first = np.unique(key, axis=0, return_index=True)
-    seeds = np.sort(order[first])
+    seeds = _spread(at, STEP * 2.0 * reach, rng)
     tree = cKDTree(at)
     i, j = ball_pairs(tree, at[seeds], reach)
     weight = ink[on][j]

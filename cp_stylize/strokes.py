@@ -255,7 +255,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
     for layer, (width, length, lines) in enumerate(zip(widths + widths[-1:] * FILLS, lengths + lengths[-1:] * FILLS,
                                                        fields + fields[-1:] * FILLS)):
         filling = layer >= len(widths)
-        links = (chain_links(brush.chain, layer) if band.face is not None else 1) if not filling else 1
+        links = chain_links(brush.chain, layer) if band.face is not None and not filling else 1
         n = int(4 * COVER * mesh.area / (DAB_AREA * length * width))
         # a filling pass draws from its own stream, each place's draws made before the bare ones are chosen:
         # where the strokes before left no gap (or the same gaps), it lays the same dabs
@@ -308,7 +308,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         colour = _picked_up(band, values, points, normals, pieces, direction, length)
         bend = _bends(band, points, normals, direction, length, width, lambda at: along(at, normals, slice(None)))
         first, second = loaded(colour, draws, brush.jitter * (1.0 - brush.fidelity), brush.jitter, lab_palette)
-        if at_size is not None and layer + 1 < len(widths) and not filling:
+        if at_size is not None and layer + 1 < len(widths):
             # the picture and its paint at its centre (what it is clipped by), and the paint at its size
             # (the mean it picks up)
             near = lines._nearest(points)
