@@ -30,10 +30,9 @@ from .sparse import map_windows
 __all__ = ["Texels", "paint", "clipped", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_END"]
 
 #: A dab's full height (a height of 1), as a share of the widest strokes' width: the relief's depth (the Bump
-#: node's distance at Relief 1, and the height Sheen lights).  Deep enough that the strokes' ridges and
-#: furrows read under an ordinary key light, low enough that a dab's flanks shade softly and its colour
-#: reads through them; a raking light shows every stroke.
-THICKNESS = 0.05
+#: node's distance at Relief 1).  Impasto: the strokes' bodies, rims and furrows read under an ordinary key
+#: light, and a raking light casts each stroke's ridge.
+THICKNESS = 0.12
 
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
 #: gone at :data:`CLIP_GONE`.
@@ -192,14 +191,15 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
         which = np.arange(*span)
         i, j, alpha, along, across = _covering(dabs, shapes, uv_axes, texels, which)
         difference = np.linalg.norm(lab_reference[j] - lab_dabs[i], axis=2).max(axis=1)
-        alpha *= strength * clipped(difference)
-        drawn = alpha > 1e-3
-        i, j, alpha, along, across = (x[drawn] for x in (i, j, alpha, along, across))
+        shape = strength * alpha
+        alpha = shape * clipped(difference)
+        drawn = shape > 1e-3
+        i, j, alpha, shape, along, across = (x[drawn] for x in (i, j, alpha, shape, along, across))
         colour = dabs.colour[which]
         second = colour if dabs.second is None else dabs.second[which]
         if pickup is not None and len(i):
             colour, second = _under((colour, second), which, i, j, alpha, dabs.draws[which], *pickup)
-        return _composite(dabs, texels, (colour, second), which[0], i, j, alpha, along, across, widest)
+        return _composite(dabs, texels, (colour, second), which[0], i, j, alpha, shape, along, across, widest)
 
     colours = np.array(base, dtype=np.float64)
     height = np.zeros(len(texels.points))
@@ -393,11 +393,14 @@ def _geometry(shapes, texels, i, j):
     return i[covered], j[covered], alpha[covered], along[covered], across[covered]
 
 
-def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest):
+def _composite(dabs, texels, colours, first, i, j, alpha, shape, along, across, widest):
     """Pairs of dabs ``i`` and texels ``j`` composited in order, the dabs' two colours ``colours`` (from dab
     ``first`` on): per texel touched, how much of what lies under the block shows through, and what
     the block adds (colour and height).  Paint is thinner on narrower dabs than ``widest``
-    (:data:`FINE_PAINT`)."""
+    (:data:`FINE_PAINT`).  ``alpha``: each pair's coverage by the dab's colour (clipped at the picture's
+    edges); ``shape``: by its paint.  A dab's paint keeps its whole shape where its
+    colour is clipped: the relief shows each stroke's body, rims and rounded ends, and no cliff where
+    the picture's colours change (a step there, lit, reads as a cut stencil)."""
     if not len(i):
         return None
     width = dabs.width[i]
@@ -420,7 +423,9 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest)
     # the tail runs dry: the paint breaks up along the bristles (the broadest of them) and lets what lies
     # under it show
     dry = np.where(closes, np.clip((along - DRY_AT) / (1.0 - DRY_AT), 0.0, 1.0), 0.0)
-    alpha = alpha * smooth_step(0.5 + (broad + 1.4 - 2.8 * dry) / 0.8)
+    dried = smooth_step(0.5 + (broad + 1.4 - 2.8 * dry) / 0.8)
+    shape = shape * dried
+    alpha = alpha * dried
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
     # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
     # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
@@ -439,15 +444,15 @@ def _composite(dabs, texels, colours, first, i, j, alpha, along, across, widest)
     scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)   # fine strokes lie on the paint
     shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first
-    i, j, alpha, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, profile, shade, load, side,
-                                                                          scrape))
+    i, j, alpha, shape, profile, shade, load, side, scrape = (x[order] for x in (i, j, alpha, shape, profile, shade,
+                                                                                 load, side, scrape))
     heads = np.flatnonzero(np.r_[True, j[1:] != j[:-1]])
     through, shown = _over(alpha, heads)
     weight = alpha * shown * shade
     paint = (1.0 - load)[:, None] * np.asarray(colours[0])[i - first] + load[:, None] * np.asarray(colours[1])[i - first]
     added = np.column_stack([np.add.reduceat(weight * paint[:, c], heads) for c in range(3)])
-    height_through, height_shown = _over(scrape * alpha * side, heads)
-    height_added = np.add.reduceat(alpha * height_shown * profile, heads)
+    height_through, height_shown = _over(scrape * shape * side, heads)
+    height_added = np.add.reduceat(shape * height_shown * profile, heads)
     return j[heads], through, added, height_through, height_added
 
 

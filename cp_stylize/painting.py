@@ -17,7 +17,7 @@ from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab, within_gamut
-from .canvas import FINE_PAINT, THICKNESS, Texels, paint
+from .canvas import FINE_PAINT, Texels, paint
 from .rigger import HELD, line_dabs
 from .lines import inked
 from .stroke_field import StrokeField
@@ -40,8 +40,11 @@ LINE_EDGE = 0.04
 #: rigger's line this share of the finest dabs' width wide (and at least its own) where it is inked fully,
 #: and narrower as it is inked less (a faint line stays fine rather than spread as a grey smear).
 THIN = 2.5
+#: Thin lines are laid only where they are inked at least this strongly (Detail 0.2 and up): a faint line,
+#: thinner than the finest dab and barely darker than the paint, reads as a crack in it, not as a twig.
+THIN_FROM = 0.5
 THIN_RADIUS = 0.4
-THIN_WIDTH = 0.5
+THIN_WIDTH = 0.7
 #: Lines are laid with a brush, not drawn with a pen: a brush's pressure swells and eases along a line, by a
 #: smooth random function of the surface (:func:`cp_stylize.watercolour.solid_noise`, its features this many
 #: of the finest dabs' widths across).  The picture's thin lines run from this share of their width to all of
@@ -51,9 +54,14 @@ THIN_PRESS, CONTOUR_PRESS = 0.35, 0.55
 #: A line is painted in a dark paint that keeps this share of the chroma of the paint under it (the rest
 #: the ink's): a twig over green leaves is a deep green, a crane over a yellow sky a dark umber.
 LINE_HUE = 0.4
-#: Sheen (:func:`_sheen`) lights the paint's relief as if it stood this many times higher than the Bump node
-#: shows it at Relief 1 (:data:`cp_stylize.canvas.THICKNESS`): the colour alone has to carry it.
-SHEEN_DEPTH = 2.0
+#: The picture's thin lines are laid in the paint under them made this much darker (OKLab lightness, not
+#: below the ink's), keeping this share of its chroma (the rest the ink's): a twig in a pale sky is a
+#: stroke of a deeper blue, one in the wheat an umber-ochre, as a painter lays them, not a black scratch.
+RIGGER_DARKER = 0.32
+RIGGER_HUE = 0.75
+#: Sheen (:func:`_sheen`) lights the paint's relief as if a dab's full height were this share of the widest
+#: strokes' width: the flanks of a stroke shade softly and its colour reads through them.
+SHEEN_HEIGHT = 0.1
 #: At Sheen 1, a flank turned fully to the light goes this share of the way to white, one turned fully away
 #: this share of the way to black.
 SHEEN_LIGHT, SHEEN_SHADE = 0.5, 0.4
@@ -135,13 +143,15 @@ class Painting:
                     finest = scale / np.median(where.lengths)
                     wavelength = PRESSURE * finest * float(np.median(where.lengths))
                     ink = min(1.0, THIN * self.detail)
-                    lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
-                    out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
-                                               max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs)
+                    if ink >= THIN_FROM:
+                        lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
+                                           max(1.5, THIN_RADIUS * finest))
+                        out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
+                                                   max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs)
             if self.sheen > 0:
                 widest = dabs.layer_width()
                 reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
-                out = _sheen(out, height, where, THICKNESS * widest, self.sheen, reach)
+                out = _sheen(out, height, where, SHEEN_HEIGHT * widest, self.sheen, reach)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
             if fine is not None:          # the line keeps to the dark side of the edge, sharp at the edge itself
@@ -167,21 +177,24 @@ class Painting:
         if line is None:
             return out, height
         under = out[at].astype(np.float64)
-        line.colour = under + (np.sqrt(ink) * np.clip(2.0 * strength, 0.0, 1.0))[:, None] * (self._line_paint(under) - under)
+        dark = self._line_paint(under, RIGGER_HUE, RIGGER_DARKER)
+        line.colour = under + (np.sqrt(ink) * np.clip(2.0 * strength, 0.0, 1.0))[:, None] * (dark - under)
         out, raised = paint(line, where, out, np.zeros((len(out), 3)), source=np.zeros((len(line), 3)))
         # a rigger's paint is thin: as thick as a dab of its width (canvas.FINE_PAINT)
         height = height + raised * (line.layer_width() / dabs.layer_width()) ** FINE_PAINT
         return out, height
 
-    def _line_paint(self, colours):
-        """The dark paint lines are laid in over sRGB ``colours`` (M, 3): the ink, keeping :data:`LINE_HUE`
-        of their own chroma (as a dark paint mixed on the canvas), or without an ink, their own darkened."""
-        if self.ink is None:
+    def _line_paint(self, colours, hue=LINE_HUE, darker=None):
+        """The dark paint lines are laid in over sRGB ``colours`` (M, 3), keeping ``hue`` of their own chroma
+        (the rest the ink's, as a dark paint mixed on the canvas): as dark as the ink, or with ``darker``,
+        their own lightness that much lower (OKLab, not below the ink's).  Without an ink, a contour's paint
+        is their own darkened, and the ink a dark grey."""
+        if self.ink is None and darker is None:
             return inked(colours, np.ones(len(colours)), None)
-        ink = to_oklab(self.ink)
-        paint = np.empty((len(colours), 3))
-        paint[:, 0] = ink[0]
-        paint[:, 1:] = ink[1:] + LINE_HUE * (to_oklab(colours)[:, 1:] - ink[1:])
+        ink = to_oklab(self.ink) if self.ink is not None else np.array([0.2, 0.0, 0.0])
+        paint = to_oklab(colours)
+        paint[:, 0] = ink[0] if darker is None else np.maximum(paint[:, 0] - darker, np.minimum(ink[0], paint[:, 0]))
+        paint[:, 1:] = ink[1:] + hue * (paint[:, 1:] - ink[1:])
         return from_oklab(within_gamut(paint))
 
     def _inked(self, colours, amount):
@@ -209,7 +222,7 @@ def _sheen(painted, height, texels, thickness, strength, reach=1):
 
     The height's gradient on the surface comes from its differences between the texels ``reach`` texels
     ahead of and behind each along the atlas's axes (those of the margin continue the surface), and tilts
-    the normal (:data:`SHEEN_DEPTH`).  The light comes at each texel from the surface's side (mirrored
+    the normal.  The light comes at each texel from the surface's side (mirrored
     where the surface turns away from it), so the relief reads on every side of the object, as under a
     raking light, and a flank turned to it lightens towards white (``strength`` times
     :data:`SHEEN_LIGHT` at most) where one turned away darkens (:data:`SHEEN_SHADE`)."""
@@ -258,7 +271,7 @@ def _relief_light(points, normals, height, ends, thickness, light):
     normals = normals.astype(np.float64)
     facing = normals @ light
     towards = light[None, :] - facing[:, None] * normals + np.abs(facing)[:, None] * normals   # from its side
-    tilted = normals - (SHEEN_DEPTH * thickness) * gradient
+    tilted = normals - thickness * gradient
     tilted /= np.linalg.norm(tilted, axis=1, keepdims=True)
     lit = np.clip(np.einsum("ij,ij->i", tilted, towards) - np.abs(facing), -1.0, 1.0)
     return np.where(np.any(gradient != 0.0, axis=1), lit, 0.0)[:, None]      # flat paint exactly as it was

@@ -110,8 +110,8 @@ RUN = {p.name: p for p in (
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution); under brush strokes, its "
-                                  "lightness shows in the paint (windows, lettering) and its thin dark lines "
-                                  "(a mast, bare branches) are drawn over the strokes", 0.0, 1.0, 1.0,
+                                  "lightness shows in the paint (windows, lettering) and, from 0.2, its thin dark "
+                                  "lines (a mast, bare branches) are drawn over the strokes", 0.0, 1.0, 1.0,
               file=(None, "detail")),
     Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
                                     "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0,
@@ -142,7 +142,8 @@ RUN = {p.name: p for p in (
                                          "(broken colour; 0: the picture's colour under the stroke)", 0.0, 1.0, 0.3,
               file=("strokes", "jitter")),
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
-                                "(0: they run level with the picture's horizon there; from 0.5 none run level)",
+                                "where it is light, as in a sky (0: they run level with the picture's horizon there; "
+                                "from 0.5 only its dark parts run level)",
               0.0, 1.0, 0.0,
               file=("strokes", "swirl")),
     Parameter("stars", "Stars", "Up to this many stars in the picture's sky (its light, calm parts), as in van "

@@ -87,6 +87,12 @@ SWIRL_SIZE = 4.0
 SWIRL_LIGHT = 0.45
 
 
+def swirling(lightness):
+    """How far a brush's swirl takes effect (0 to 1) where the picture's OKLab ``lightness`` is this
+    (:data:`SWIRL_LIGHT`): in the light parts, as in the painting's sky."""
+    return np.clip((np.asarray(lightness) - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
+
+
 @dataclasses.dataclass(frozen=True)
 class Brush:
     """What the strokes look like (lengths of the object normalised to a diameter of 2).
@@ -284,7 +290,7 @@ def place_dabs(mesh, band, values, brush, *, structure=None, texel, palette=None
         normals = mesh.normal(points, faces, bary)
         pieces = mesh.piece[faces]
         near = lines._nearest(points)
-        light = np.clip((structure[near, 0] - SWIRL_LIGHT) / 0.2, 0.0, 1.0)
+        light = swirling(structure[near, 0])
         direction = lines.at(points, normals, brush.swirl * light, swirls, field, broad, level)
         # where the picture has little structure, each dab turns a little its own way: a flat patch gets a
         # painter's varied strokes, not rings of parallel ones

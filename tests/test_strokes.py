@@ -440,11 +440,14 @@ def test_a_dab_stops_where_the_picture_or_its_paint_changes(sphere):
     picture, paint_of = grey.copy(), grey.copy()
     picture[marking], paint_of[marking] = 0.36, [0.95, 0.8, 0.1]
     covered = (texels.points[:, 1] < -0.9) & (np.abs(texels.points[:, 2]) < 0.15) & (np.abs(texels.points[:, 0]) < 0.15)
-    alone, _ = paint(dab, texels, base, picture)                       # by the picture alone: painted over
-    both, _ = paint(dab, texels, base, np.hstack([picture, paint_of]), source=np.array([[0.3, 0.3, 0.3] * 2]))
+    alone, raised = paint(dab, texels, base, picture)                  # by the picture alone: painted over
+    both, relief = paint(dab, texels, base, np.hstack([picture, paint_of]), source=np.array([[0.3, 0.3, 0.3] * 2]))
     left, right = covered & (texels.points[:, 0] < -0.05), covered & (texels.points[:, 0] > 0.05)
     assert alone[right, 0].min() > 0.25
     assert both[right].max() == 0.0 and both[left, 0].min() > 0.25     # stopped at the marking, whole elsewhere
+    # the paint's relief keeps the dab's whole shape: no cliff where its colour stops
+    np.testing.assert_array_equal(relief, raised)
+    assert np.median(relief[right]) > 0.5 * np.median(relief[left]) > 0
     assert canvas.clipped(canvas.CLIP) == 1.0 and canvas.clipped(canvas.CLIP_GONE) == 0.0
 
 
@@ -612,6 +615,11 @@ def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relie
     assert np.abs(lined - plain)[off].max() < 1e-6                      # and nothing away from it
     away = y > -0.5                                                      # far from the one dab
     assert np.mean(height[on & away] > 0) > 0.9 and np.all(height[off & away] == 0)   # its paint stands
+    # a shade of the paint under it, not the ink's black: grey stays grey, a third of the way down
+    assert np.abs(np.diff(lined[on & away], axis=1)).max() < 0.02 and lined[on & away].mean() > 0.25
+    # at a low Detail the line is left to the paint: faintly drawn, it would read as a crack
+    faint, raised = Painting(mesh, atlas, one, source=picture, detail=0.15, fine=0.1)(where, base, None)
+    assert (plain - faint)[on].mean() < 0.05 and np.all(raised[on & away] == 0)
 
 
 def test_the_last_passes_of_fine_dabs_leave_no_bare_canvas_between_the_strokes(sphere, monkeypatch):
@@ -629,3 +637,27 @@ def test_the_last_passes_of_fine_dabs_leave_no_bare_canvas_between_the_strokes(s
     filled = bare()
     monkeypatch.setattr(strokes, "FILLS", 0)
     assert filled < 0.025 and bare() > 0.04            # random strokes alone leave gaps; the fill closes them
+
+
+def test_a_swirling_brush_paints_the_pictures_dark_flat_parts_level_and_lets_its_light_ones_swirl(sphere):
+    from cp_stylize.pipeline import stroke_level
+    from cp_stylize.sampling import ColourInput, Texture
+    from cp_stylize.settings import StylizeSettings
+
+    mesh, band, _, _ = sphere
+    _, faces, uvs = parametric_mesh(Sphere().point, 96, 48, periodic_u=True)
+    picture = ColourInput(textures=[Texture(np.zeros((4, 4, 3), np.float32), uvs, np.ones(len(faces), bool))])
+    sampled = np.where(band.cp[:, 2:3] > 0, 0.9, 0.1) * np.ones(3)        # a light sky over a dark ground
+    up, down = band.cp[:, 2] > 0.2, band.cp[:, 2] < -0.2
+
+    def share(swirl):
+        level = stroke_level(mesh, band, StylizeSettings(mode="gaussian", swirl=swirl), sampled=sampled, field=None,
+                             colours=picture)
+        return None if level is None else np.linalg.norm(level, axis=1)
+
+    swirling = share(0.6)
+    assert np.median(swirling[down]) > 0.99 and swirling[up].max() == 0.0   # level ground, a sky left to swirl
+    calm = share(0.0)
+    assert np.median(calm[up]) > 0.99 and np.median(calm[down]) > 0.99      # a brush that never swirls: all level
+    assert stroke_level(mesh, band, StylizeSettings(mode="gaussian", swirl=0.6), sampled=sampled, field=None,
+                        colours=ColourInput.constant(mesh.n_input_faces, (0.5, 0.5, 0.5))) is None   # no picture
