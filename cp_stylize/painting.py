@@ -40,9 +40,10 @@ LINE_EDGE = 0.04
 #: rigger's line this share of the finest dabs' width wide (and at least its own) where it is inked fully,
 #: and narrower as it is inked less (a faint line stays fine rather than spread as a grey smear).
 THIN = 2.5
-#: Thin lines are laid only where they are inked at least this strongly (Detail 0.2 and up): a faint line,
+#: A thin line inked less than fully (Detail below 0.4) is laid only where it runs on for at least this many
+#: of the finest dabs' widths times the share it falls short by (a mast, a jib, a cable): a short faint line,
 #: thinner than the finest dab and barely darker than the paint, reads as a crack in it, not as a twig.
-THIN_FROM = 0.5
+LONG_RUN = 8.0
 THIN_RADIUS = 0.4
 THIN_WIDTH = 0.7
 #: Lines are laid with a brush, not drawn with a pen: a brush's pressure swells and eases along a line, by a
@@ -143,11 +144,10 @@ class Painting:
                     finest = scale / np.median(where.lengths)
                     wavelength = PRESSURE * finest * float(np.median(where.lengths))
                     ink = min(1.0, THIN * self.detail)
-                    if ink >= THIN_FROM:
-                        lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size,
-                                           max(1.5, THIN_RADIUS * finest))
-                        out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
-                                                   max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs)
+                    lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
+                    out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
+                                               max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs,
+                                               LONG_RUN * (1.0 - ink) * scale)
             if self.sheen > 0:
                 widest = dabs.layer_width()
                 reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
@@ -164,16 +164,16 @@ class Painting:
         painted[:, :3] = out
         return painted, height
 
-    def _rigged(self, out, height, lined, where, faces, barys, wavelength, texels_wide, ink, press, dabs):
+    def _rigged(self, out, height, lined, where, faces, barys, wavelength, texels_wide, ink, press, dabs, run):
         """``out`` and ``height`` with the lines ``lined`` (M,) laid over them as a rigger's dabs
         (:func:`cp_stylize.rigger.line_dabs`) ``texels_wide`` texels wide at full pressure (at least ``press``
-        of it), ``ink`` strong."""
+        of it), ``ink`` strong, where they run on at least ``run`` (a length on the surface)."""
         on = lined >= HELD
         width = np.zeros(len(lined))
         width[on] = (texels_wide * where.lengths[on]
                      * (press + (1.0 - press) * _pressure(where.points[on], wavelength)))
         line, at, strength = line_dabs(lined, where.points, where.normals, faces, barys, where.pieces, width,
-                                       seed=int(dabs.phase.size), layer=int(dabs.layer.max()) + 1)
+                                       seed=int(dabs.phase.size), layer=int(dabs.layer.max()) + 1, run=run)
         if line is None:
             return out, height
         under = out[at].astype(np.float64)

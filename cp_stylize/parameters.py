@@ -110,8 +110,9 @@ RUN = {p.name: p for p in (
     Parameter("detail", "Detail", "How much of the texture's own detail, finer than the grid, comes back over "
                                   "the result where the filter leaves it (1: a run that changes nothing gives "
                                   "back the texture; 0: the grid's resolution); under brush strokes, its "
-                                  "lightness shows in the paint (windows, lettering) and, from 0.2, its thin dark "
-                                  "lines (a mast, bare branches) are drawn over the strokes", 0.0, 1.0, 1.0,
+                                  "lightness shows in the paint (windows, lettering) and its thin dark lines (a "
+                                  "mast, bare branches; below 0.4 only the long ones) are drawn over the strokes",
+              0.0, 1.0, 1.0,
               file=(None, "detail")),
     Parameter("strokes", "Strokes", "Brush strokes: dabs of paint laid on the surface in layers, coarse to fine, "
                                     "along the picture's edges, this opaque (0: none)", 0.0, 1.0, 0.0,

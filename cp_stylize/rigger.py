@@ -36,17 +36,21 @@ WOBBLE = 0.06
 #: A dab is laid only where its line runs on for at least this many of its widths (about it, either way): a
 #: fleck or a short fragment of a busy texture is left to the dabs of colour, not drawn as a scratch.
 RUN = 6.0
+#: A line's run counts its texels within this many of its widths of the straight line through the dab's
+#: centre: the line itself, a little bent, and not the lines of a busy texture about it.
+STRAIGHT = 1.5
 #: A dab is laid only where the line's texels about it lie along one direction: the spread across it is at
 #: most this share of the spread along it (a blot of dark texels is not a line).
 ELONGATED = 0.5
 
 
-def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, layer=0):
+def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, layer=0, run=0.0):
     """Dabs (:class:`~cp_stylize.strokes.Dabs`, colour unset: zeros) along the lines of ``ink`` (M,) in
     [0, 1] at texels with surface ``points`` and unit ``normals`` (M, 3), input ``faces`` (M,), barycentric
     coordinates ``barys`` (M, 3) and mesh ``pieces`` (M,); ``width`` (M,): the brush's width at each texel, a
-    length on the surface.  Each dab takes the texel nearest its middle as its centre; None where no line
-    is found.  Also returned: each dab's centre texel (n,) and its ink (n,), the mean of ``ink`` over its
+    length on the surface; ``run``: a line is laid only where it runs on at least this far (a length on
+    the surface), and at least :data:`RUN` of its widths.  Each dab takes the texel nearest its middle as
+    its centre; None where no line is found.  Also returned: each dab's centre texel (n,) and its ink (n,), the mean of ``ink`` over its
     line.
     """
     on = np.flatnonzero(ink >= HELD)
@@ -81,7 +85,8 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     _, centre = tree.query(middle)
     brush = width[on][centre]
     length = np.clip(high - low + brush, 2.0 * brush, 2.0 * reach)
-    keep = np.flatnonzero(lined & (_run(tree, at, seeds, direction, RUN * brush) >= RUN * brush))
+    need = np.maximum(RUN * brush, float(run))
+    keep = np.flatnonzero(lined & (_run(tree, at, seeds, direction, need, STRAIGHT * brush, brush) >= need))
     if not len(keep):
         return None, None, None
     centre = on[centre[keep]]
@@ -99,12 +104,25 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     return dabs, centre, (total / np.maximum(np.bincount(i, minlength=len(seeds)), 1))[keep]
 
 
-def _run(tree, at, seeds, direction, reach):
-    """How far the line of points ``at`` (a k-d ``tree`` of them) runs along each ``direction`` (n, 3) within
-    ``reach`` (n,) of the points ``seeds`` (n,): the spread along it of the points within that distance."""
+def _run(tree, at, seeds, direction, reach, across, step):
+    """How far the line of points ``at`` (a k-d ``tree`` of them) runs on, straight and unbroken, along each
+    ``direction`` (n, 3) from the points ``seeds`` (n,), up to ``reach`` (n,) either way: the points within
+    ``across`` (n,) of the straight line through the seed, in steps of ``step`` (n,) along it, counted out
+    from the seed each way until a step holds none (the seed's own step counts for neither side).  The lines
+    of a busy texture about it, which cross that line here and there, and a zigzag's turns do not run it
+    on."""
     i, j = ball_pairs(tree, at[seeds], reach)
-    low, high = _span(i, np.einsum("ij,ij->i", at[j] - at[seeds][i], direction[i]), len(seeds))
-    return high - low
+    offset = at[j] - at[seeds][i]
+    along = np.einsum("ij,ij->i", offset, direction[i])
+    straight = np.einsum("ij,ij->i", offset, offset) - along**2 <= across[i] ** 2
+    steps = int(np.ceil(np.max(reach / step))) if len(seeds) else 0
+    which = np.clip(np.round(along[straight] / step[i[straight]]).astype(np.int64), -steps, steps)
+    held = np.zeros((len(seeds), 2 * steps + 1), dtype=bool)
+    held[i[straight], which + steps] = True
+    held[:, steps] = True                                            # the seed's own step
+    ahead = np.argmin(np.c_[held[:, steps:], np.zeros(len(seeds), bool)], axis=1)      # steps held on each side
+    behind = np.argmin(np.c_[held[:, steps::-1], np.zeros(len(seeds), bool)], axis=1)
+    return (ahead + behind - 2) * step
 
 
 def _span(i, t, n):

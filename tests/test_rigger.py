@@ -9,15 +9,15 @@ SIZE = 120
 TEXEL = 0.01
 
 
-def _plane(ink):
+def _plane(ink, run=0.0):
     """Texels of a flat square (SIZE x SIZE, TEXEL apart) with ``ink`` (SIZE, SIZE), and the dabs laid on it
-    by a brush two texels wide."""
+    by a brush two texels wide, on lines that run on at least ``run``."""
     rows, cols = np.mgrid[0:SIZE, 0:SIZE]
     points = np.column_stack([cols.ravel() * TEXEL, rows.ravel() * TEXEL, np.zeros(SIZE * SIZE)])
     normals = np.tile([0.0, 0.0, 1.0], (SIZE * SIZE, 1))
     m = SIZE * SIZE
     return points, line_dabs(ink.ravel(), points, normals, np.zeros(m, np.int64), np.tile([1.0, 0, 0], (m, 1)),
-                             np.zeros(m, np.int64), np.full(m, 2 * TEXEL), seed=3, layer=4)
+                             np.zeros(m, np.int64), np.full(m, 2 * TEXEL), seed=3, layer=4, run=run)
 
 
 @pytest.mark.parametrize("angle", [0.0, 0.4, 1.1, np.pi / 2])
@@ -67,3 +67,24 @@ def test_a_fleck_too_short_to_be_a_line_lays_no_dabs():
     assert _plane(fleck)[1][0] is None
     dash = ((np.abs(rows - 60) <= 1) & (np.abs(cols - 60) <= 8)).astype(float)    # 17 texels: a line
     assert _plane(dash)[1][0] is not None
+
+
+def test_a_line_is_laid_only_where_it_runs_on_as_far_as_asked():
+    rows, cols = np.mgrid[0:SIZE, 0:SIZE]
+    mast = (np.abs(cols - 30) <= 1) & (np.abs(rows - 60) <= 45)             # 91 texels long
+    twig = (np.abs(rows - 60) <= 1) & (np.abs(cols - 90) <= 10)             # 21 texels long
+    _, (dabs, _, _) = _plane((mast | twig).astype(float), run=50 * TEXEL)
+    assert dabs is not None and np.all(np.abs(dabs.centre[:, 0] - 0.30) < 3 * TEXEL)    # the mast alone
+    _, (dabs, _, _) = _plane((mast | twig).astype(float))
+    assert np.any(np.abs(dabs.centre[:, 0] - 0.90) < 12 * TEXEL)                        # both, by default
+
+
+def test_the_short_dashes_of_a_busy_texture_lay_no_line_however_many():
+    rows, cols = np.mgrid[0:SIZE, 0:SIZE]
+    rng = np.random.default_rng(4)
+    ink = np.zeros((SIZE, SIZE))
+    for _ in range(60):                     # dashes 13 texels long, every which way, close together
+        y, x, angle = rng.uniform(15, SIZE - 15), rng.uniform(15, SIZE - 15), rng.uniform(0, np.pi)
+        t = np.clip(np.arange(-6, 7), -6, 6)
+        ink[np.round(y + t * np.sin(angle)).astype(int), np.round(x + t * np.cos(angle)).astype(int)] = 1.0
+    assert _plane(ink, run=40 * TEXEL)[1][0] is None

@@ -617,9 +617,9 @@ def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relie
     assert np.mean(height[on & away] > 0) > 0.9 and np.all(height[off & away] == 0)   # its paint stands
     # a shade of the paint under it, not the ink's black: grey stays grey, a third of the way down
     assert np.abs(np.diff(lined[on & away], axis=1)).max() < 0.02 and lined[on & away].mean() > 0.25
-    # at a low Detail the line is left to the paint: faintly drawn, it would read as a crack
-    faint, raised = Painting(mesh, atlas, one, source=picture, detail=0.15, fine=0.1)(where, base, None)
-    assert (plain - faint)[on].mean() < 0.05 and np.all(raised[on & away] == 0)
+    # at a low Detail a line as long as this one is laid fainter (and a short one not at all: test_rigger)
+    faint, _ = Painting(mesh, atlas, one, source=picture, detail=0.15, fine=0.1)(where, base, None)
+    assert 0.05 < (plain - faint)[on].mean() < 0.7 * (plain - lined)[on].mean()
 
 
 def test_the_last_passes_of_fine_dabs_leave_no_bare_canvas_between_the_strokes(sphere, monkeypatch):
