@@ -334,8 +334,10 @@ def stroke_level(mesh, band, settings, *, sampled, field, colours):
     all of it for a brush that does not swirl, and for one that does, in the picture's dark parts alone
     (:func:`cp_stylize.strokes.swirling`).  A sky swirls; a dark, flat ground is painted in level strokes,
     not in whorls that echo the edges about it."""
+    if not colours.textures:
+        return None
     share = level_share(settings.swirl * swirling(to_oklab(np.asarray(sampled).reshape(band.size, -1)[:, :3])[:, 0]))
-    if not colours.textures or share.max() <= 0:
+    if share.max() <= 0:
         return None
     return share[:, None] * level_field(band, field, picture_level(mesh, colours))
 

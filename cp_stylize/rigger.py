@@ -50,8 +50,8 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     coordinates ``barys`` (M, 3) and mesh ``pieces`` (M,); ``width`` (M,): the brush's width at each texel, a
     length on the surface; ``run``: a line is laid only where it runs on at least this far (a length on
     the surface), and at least :data:`RUN` of its widths.  Each dab takes the texel nearest its middle as
-    its centre; None where no line is found.  Also returned: each dab's centre texel (n,) and its ink (n,), the mean of ``ink`` over its
-    line.
+    its centre; None where no line is found.  Also returned: each dab's centre texel (n,) and its ink (n,),
+    the mean of ``ink`` over its line.
     """
     on = np.flatnonzero(ink >= HELD)
     if len(on) < 3:
@@ -86,7 +86,9 @@ def line_dabs(ink, points, normals, faces, barys, pieces, width, *, seed=0, laye
     brush = width[on][centre]
     length = np.clip(high - low + brush, 2.0 * brush, 2.0 * reach)
     need = np.maximum(RUN * brush, float(run))
-    keep = np.flatnonzero(lined & (_run(tree, at, seeds, direction, need, STRAIGHT * brush, brush) >= need))
+    keep = np.flatnonzero(lined)            # the run is measured only where the texels lie along a line
+    keep = keep[_run(tree, at, seeds[keep], direction[keep], need[keep], STRAIGHT * brush[keep], brush[keep])
+                >= need[keep]]
     if not len(keep):
         return None, None, None
     centre = on[centre[keep]]
