@@ -144,7 +144,7 @@ RUN = {p.name: p for p in (
               file=("strokes", "jitter")),
     Parameter("swirl", "Swirl", "Where the picture has little structure, strokes circle in swirls this much "
                                 "where it is light, as in a sky (0: they run level with the picture's horizon there; "
-                                "from 0.5 only its dark parts run level)",
+                                "from 0.5 none run level)",
               0.0, 1.0, 0.0,
               file=("strokes", "swirl")),
     Parameter("stars", "Stars", "Up to this many stars in the picture's sky (its light, calm parts), as in van "

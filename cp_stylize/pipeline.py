@@ -50,7 +50,7 @@ from .shading import EDGE_DEPTH, LIGHT_DEPTH, FormShading, shaded
 from .seams import SeamHealing, seam_edges
 from .parameters import AXIS_DIRECTIONS, DIRECTED_MODES
 from .stroke_field import form_field, level_field, level_share, sample_directions
-from .strokes import Brush, swirling
+from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
 
 # ColourInput and Texture (cp_stylize.sampling) are named here too: a run's colours are given as them
@@ -328,18 +328,16 @@ def hatching(mesh, band, atlas, settings, *, sampled, field, colours, filtered):
                     smooth=settings.hatch_smooth, field=guide, colours=hatch_colours(settings), seed=settings.seed)
 
 
-def stroke_level(mesh, band, settings, *, sampled, field, colours):
-    """The level field (N, 3) strokes turn to where the picture's ``sampled`` colours have no structure
+def stroke_level(mesh, band, settings, *, field, colours):
+    """The level field (N, 3) strokes turn to where the picture has no structure
     (:func:`cp_stylize.stroke_field.level_field`, as long as its share), or None: the picture's horizontal,
-    all of it for a brush that does not swirl, and for one that does, in the picture's dark parts alone
-    (:func:`cp_stylize.strokes.swirling`).  A sky swirls; a dark, flat ground is painted in level strokes,
-    not in whorls that echo the edges about it."""
-    if not colours.textures:
+    all of it for a brush that does not swirl and less as Swirl grows (:func:`cp_stylize.stroke_field.level_share`).
+    A swirling brush lays no level strokes: where the picture is flat, its strokes swirl (where the picture
+    is light) or turn each its own way (where it is dark), as van Gogh's do, instead of combing the ground."""
+    share = level_share(settings.swirl)
+    if not colours.textures or share <= 0:
         return None
-    share = level_share(settings.swirl * swirling(to_oklab(np.asarray(sampled).reshape(band.size, -1)[:, :3])[:, 0]))
-    if share.max() <= 0:
-        return None
-    return share[:, None] * level_field(band, field, picture_level(mesh, colours))
+    return share * level_field(band, field, picture_level(mesh, colours))
 
 
 def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours, source):
@@ -347,7 +345,7 @@ def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours
     contour lines), from the picture's ``sampled`` colours, the stroke ``field``, the run's
     :class:`ColourInput` and ``source(faces, barys)``, the picture at points of the mesh."""
     brush = brush_for(settings)
-    level = stroke_level(mesh, band, settings, sampled=sampled, field=field, colours=colours) if brush else None
+    level = stroke_level(mesh, band, settings, field=field, colours=colours) if brush else None
     return painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                     palette=settings.palette or None, weights=settings.palette_weights or None, field=field,
                     recolour=_recolour(settings), level=level, detail=settings.detail, source=source,

@@ -155,10 +155,8 @@ LEVEL_SWIRL = 0.5
 
 
 def level_share(swirl):
-    """How far the :func:`level_field` takes over (0 to 1) for a brush of ``swirl`` (:data:`LEVEL_SWIRL`; a
-    number, or one for each point)."""
-    share = np.clip(1.0 - np.asarray(swirl, dtype=np.float64) / LEVEL_SWIRL, 0.0, 1.0)
-    return float(share) if share.ndim == 0 else share
+    """How far the :func:`level_field` takes over (0 to 1) for a brush of ``swirl`` (:data:`LEVEL_SWIRL`)."""
+    return float(np.clip(1.0 - swirl / LEVEL_SWIRL, 0.0, 1.0))
 
 
 def form_field(band, field, around=False, axis=(0.0, 0.0, 1.0)):
