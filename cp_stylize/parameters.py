@@ -147,7 +147,7 @@ RUN = {p.name: p for p in (
                                 "from 0.5 none run level)",
               0.0, 1.0, 0.0,
               file=("strokes", "swirl")),
-    Parameter("stars", "Stars", "Up to this many stars in the picture's sky (its light, calm parts), as in van "
+    Parameter("stars", "Stars", "Up to this many stars at the picture's lights (its calm parts that stand out lightest), as in van "
                                 "Gogh's \"The Starry Night\" (1889): a bright core ringed by halos of strokes that "
                                 "circle it (0: none; with strokes)", 0, 40, 0, "count", precision=0, step=100,
               file=("strokes", "stars")),

@@ -2,9 +2,10 @@
 
 In the painting each star is a bright core ringed by halos of short strokes that
 circle it, pale yellow and blue-white by turns, in a sky of swirling blues.  Here
-stars go where the picture has a sky: a part that is light and calm (no
-buildings, branches or lettering there to hide), found on the surface itself,
-so a star crosses UV seams whole:
+stars go at the picture's lights: in its sky, a part that is light and calm (no
+buildings, branches or lettering there to hide), where it stands out lightest
+from the picture about it (the sun behind cloud, a gap in a canopy), found on
+the surface itself, so a star crosses UV seams whole:
 
 - **found** on the band: the picture's OKLab lightness is smoothed over a star's
   core (a Gaussian of deviation ``radius``,
@@ -14,10 +15,16 @@ so a star crosses UV seams whole:
   the picture's spread about the core's smoothed lightness, over the halo, is
   among its calmest :data:`CALM` share (or below :data:`STILL`), where the
   core stands out from the halo by at most :data:`MIN_CONTRAST` (no edge runs
-  through it), and with its whole halo clear of the mesh's open border.  Those
-  places are taken in a random order (``seed``), each with its own radius, so
-  the stars scatter over the sky in several sizes, at most ``count`` of them,
-  their halos kept apart by at least -:data:`OVERLAP` of their reach;
+  through it; lighter by up to :data:`GLOW`: a light's glow), and with its whole
+  halo clear of the mesh's open border.  Of those places, stars go at the
+  picture's lights alone: where the core's smoothed lightness stands out from
+  the picture's about it (over :data:`AROUND` radii) within :data:`LIGHTS` of
+  the most.  The place that stands out most takes the first star, the largest;
+  the others are taken in a random order (``seed``), each with its own
+  radius, so the stars scatter over the lights in several sizes, at most
+  ``count`` of them, their halos kept apart by at least -:data:`OVERLAP` of
+  their reach.  A grey sky with one bright patch (the sun behind cloud) gets its
+  star there, not in the dull sky about it;
 - **painted into the picture**, before the palette maps its colours, so the
   palette gives a star its own colours: a :data:`CORE` colour over the core
   (:data:`CORE_SHARE` of the radius) and around it, out to :data:`HALO` radii,
@@ -52,8 +59,14 @@ HALO = 2.6
 #: Two stars' halos may overlap by at most this share of the sum of their reaches (below 0: they keep that
 #: share of it apart, so the stars scatter over the sky instead of standing halo to halo).
 OVERLAP = -0.35
-#: A star's core may be lighter or darker than its halo by at most this much (OKLab; smoothed).
+#: A star's core may be darker than its halo by at most this much (OKLab; smoothed): no edge runs through it ...
 MIN_CONTRAST = 0.03
+#: ... and lighter by at most this much: a light's glow, not a lit window in a dark wall.
+GLOW = 0.15
+#: Stars go at the picture's lights: where the core's smoothed OKLab lightness stands out from the picture's
+#: over :data:`AROUND` radii by within this of the place a star may go that stands out most.
+LIGHTS = 0.08
+AROUND = 8.0
 #: Stars go where the halo's smoothed OKLab lightness is at least this ...
 SKY_LIGHT = 0.6
 #: ... and among this share of the picture's lightest (a quantile) ...
@@ -242,7 +255,7 @@ def _border_points(mesh, spacing):
 
 def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     """Up to ``count`` :class:`Stars` of core ``radius`` (rings ``ring`` apart) in the sky of the band's
-    sRGB ``colours`` (N, C): its light, calm parts (see the module's notes)."""
+    sRGB ``colours`` (N, C): at its lights, its light, calm parts that stand out lightest (see the module's notes)."""
     from scipy.spatial import cKDTree
 
     from .smoothing import GridGaussian
@@ -258,13 +271,20 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     near = np.abs(band.dist) <= band.h                   # points next to the surface stand for it
     light = around >= max(float(np.quantile(lightness[near], SKY)), SKY_LIGHT)
     calm = spread <= max(float(np.quantile(spread[near], CALM)), STILL**2)
-    calm &= np.abs(spot - around) <= MIN_CONTRAST
+    calm &= (around - spot <= MIN_CONTRAST) & (spot - around <= GLOW)
     candidates = np.flatnonzero(near & light & calm)
     if not len(candidates):
         return none
+    # how far each place stands out from the picture about it: a light (the sun behind cloud, a gap in a
+    # canopy) does, an even sky does not
+    stands = spot - core.at_time(0.5 * (AROUND * radius) ** 2)(lightness[None, :])[0]
+    lights = candidates[stands[candidates] >= stands[candidates].max() - LIGHTS]
+    lightest = lights[np.argmax(stands[lights])]
     rng = np.random.default_rng([int(seed), 7])
-    candidates = rng.permutation(candidates)[:CANDIDATES]             # scattered over the sky, not in a row
+    others = rng.permutation(lights[lights != lightest])[:CANDIDATES]   # scattered over the lights, not in a row
+    candidates = np.concatenate([[lightest], others])
     radii = radius * SIZES[1] * (SIZES[0] / SIZES[1]) ** rng.random(len(candidates))   # as many small as large
+    radii[0] = radius * SIZES[0]                                        # the lightest: the largest star
     border = _border_points(mesh, 0.5 * radius)
     if len(border):                                      # a whole star, not one cut by the border
         clear, _ = cKDTree(border).query(band.cp[candidates])

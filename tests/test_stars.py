@@ -47,6 +47,22 @@ def test_stars_go_in_the_light_calm_sky_apart_and_no_more_than_asked(sphere):
     assert len(find_stars(mesh, band, _sky_and_ground(band), 0, radius, 0.03)) == 0
 
 
+def test_a_grey_sky_with_one_light_gets_its_stars_at_the_light_the_largest_first(sphere):
+    mesh, band, _ = sphere
+    radius = 0.06
+    light = np.array([0.0, -0.8, 0.6])                           # the sun behind cloud, in a grey sky
+    glow = np.exp(-np.sum((band.cp - light) ** 2, axis=1) / (2 * 0.3**2))
+    grey = np.where(band.cp[:, 2] > 0, 0.62 + 0.36 * glow, 0.1)
+    stars = find_stars(mesh, band, np.repeat(grey[:, None], 3, axis=1).astype(np.float32), 6, radius, 0.03, seed=2)
+    assert len(stars) >= 1
+    assert stars.radii[0] == pytest.approx(SIZES[0] * radius)    # the light's star: the largest
+    near = np.linalg.norm(stars.centres - light, axis=1)
+    assert near[0] < 0.3 and np.all(near < 0.6)                  # at the light, none out in the dull sky
+    even = np.repeat(np.where(band.cp[:, 2] > 0, 0.8, 0.1)[:, None], 3, axis=1).astype(np.float32)
+    spread = find_stars(mesh, band, even, 6, radius, 0.03, seed=2)
+    assert np.ptp(np.arctan2(spread.centres[:, 1], spread.centres[:, 0])) > 1.0   # an even sky: all over it
+
+
 @pytest.mark.parametrize("cells", [(60, 30), (1, 1)])
 def test_no_star_is_cut_by_the_meshs_open_border(cells):
     # a finely meshed frame, and one of two triangles whose border has vertices at its corners alone
