@@ -38,6 +38,9 @@ THICKNESS = 0.12
 #: gone at :data:`CLIP_GONE`.
 CLIP = 0.2
 CLIP_GONE = 0.4
+#: A dab's paint stands whole in the relief where at least this share of its footprint shows its colour, and
+#: in proportion below it.
+SHOWN = 0.5
 #: Of the height a later stroke paints over, this share is scraped away (the rest stays under it: paint
 #: builds up where strokes overlap); a dab within a stroke lays its paint over the one before it, all of it.
 FLATTEN = 0.35
@@ -65,6 +68,8 @@ LOAD_SOFT = 0.5
 LOAD_STREAK = 0.5
 #: The last dab of a stroke runs dry from this share of its half length behind its centre to its tail.
 DRY_AT = 0.4
+#: ... and its paint thins out to this much less at the tail.
+DRY_THIN = 0.7
 #: A dab's paint is as thick as this power of its width over the widest dabs' (a fine brush carries less
 #: paint: a dab half as wide, a quarter as thick), and a finer layer's dabs lie on the paint under them as a
 #: stroke's first dab does: the broad strokes carry the relief, in ridges a stroke wide, and the many fine
@@ -195,6 +200,11 @@ def paint(dabs, texels, base, reference=None, *, strength=1.0, source=None, pick
         alpha = shape * clipped(difference)
         drawn = shape > 1e-3
         i, j, alpha, shape, along, across = (x[drawn] for x in (i, j, alpha, shape, along, across))
+        # a dab's paint keeps its whole shape in the relief, as far as its colour shows: one clipped away
+        # all but a sliver leaves no ridge where no stroke is seen
+        own = i - which[0]
+        shows = (np.bincount(own, alpha, len(which)) / np.maximum(np.bincount(own, shape, len(which)), 1e-12))
+        shape = shape * np.clip(shows / SHOWN, 0.0, 1.0)[own]
         colour = dabs.colour[which]
         second = colour if dabs.second is None else dabs.second[which]
         if pickup is not None and len(i):
@@ -406,6 +416,7 @@ def _composite(dabs, texels, colours, first, i, j, alpha, shape, along, across, 
     width = dabs.width[i]
     phase = dabs.phase[i]
     opens, closes = dabs.stroke_ends(i)                    # whether each pair's dab begins, ends its stroke
+    footprint = across                                     # across the dab's own tapered footprint
     # a dab within a stroke runs on from the one before it: its marks and rims go straight on into its head,
     # where a stroke's first dab bends them round its rounded head
     across = np.where(opens, across, across * _half_width(along))
@@ -424,8 +435,10 @@ def _composite(dabs, texels, colours, first, i, j, alpha, shape, along, across, 
     # under it show
     dry = np.where(closes, np.clip((along - DRY_AT) / (1.0 - DRY_AT), 0.0, 1.0), 0.0)
     dried = smooth_step(0.5 + (broad + 1.4 - 2.8 * dry) / 0.8)
-    shape = shape * dried
     alpha = alpha * dried
+    # its paint thins out evenly: the bristles' broken streaks of colour, raised, would stand as thin
+    # fingers that a light draws as dark ticks
+    shape = shape * (1.0 - DRY_THIN * smooth_step(dry))
     # raised paint, as a loaded brush leaves it: each dab its own thickness, thickest where the brush
     # touched down (the head of its stroke) and thinning towards the tail where it ran dry; a rim along
     # both sides where the bristles pushed the paint aside; bristle furrows along the stroke
@@ -437,8 +450,7 @@ def _composite(dabs, texels, colours, first, i, j, alpha, shape, along, across, 
     # the one before it (it lays its paint over that one's, not on top of it)
     edge = np.maximum(EDGE * width / 2, texels.lengths[j])              # on the surface
     edge_across, edge_along = edge / (width / 2), edge / (dabs.length[i] / 2)
-    side = (smooth_step((1.0 - np.abs(across)) / edge_across)
-            * np.where(opens, smooth_step((along + 1.0) / edge_along), 1.0)
+    side = (smooth_step((1.0 - np.abs(footprint)) / edge_across) * smooth_step((along + 1.0) / edge_along)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
     profile = thickness * side * (BODY + rim + GROOVE_DEPTH * ridge)
     scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)   # fine strokes lie on the paint

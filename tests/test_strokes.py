@@ -429,6 +429,51 @@ def test_a_strokes_last_dab_runs_dry_along_its_bristles_and_the_others_do_not(sp
     assert covered[canvas.HEAD_END][tail].min() > 0.8                # a dab that goes on is covered to its tail
     dry = covered[canvas.HEAD_END | canvas.TAIL_END][tail]
     assert dry.min() < 0.3 and dry.max() > 0.8                        # the stroke's end breaks up: gaps and paint
+    # ... and its paint thins out evenly: no raised fingers along the bristles, which a light draws as ticks
+    dab.ends = np.array([canvas.HEAD_END | canvas.TAIL_END], np.int8)
+    _, height = paint(dab, texels, base, reference)
+    red = covered[canvas.HEAD_END | canvas.TAIL_END]
+    gaps, streaks = tail & (red < 0.3), tail & (red > 0.8)
+    assert gaps.sum() > 3 and streaks.sum() > 3
+    assert height[gaps].mean() > 0.7 * height[streaks].mean()
+    assert height[tail].max() < 0.5 * height[body].mean()             # thinner at the tail
+
+
+def _footprint(dab, points):
+    """Where ``points`` lie in a single dab's tapered footprint: its outline at 1 (and its place along it)."""
+    offset = points - dab.centre[0]
+    along = (offset @ dab.direction[0]) / (0.5 * dab.length[0])
+    side = np.cross(dab.normal[0], dab.direction[0])
+    half = 0.5 * dab.width[0] * canvas._half_width(np.clip(along, -1.0, 1.0))
+    return np.maximum(np.abs(offset @ side) / np.maximum(half, 1e-9), np.abs(along)), along
+
+
+def test_a_dab_within_a_stroke_stands_on_a_rounded_edge_all_round_its_footprint(sphere):
+    mesh, band, atlas, texels = sphere
+    base = np.zeros((len(texels.points), 3))
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)
+    dab.ends = np.zeros(1, np.int8)                                  # neither its stroke's head nor its tail
+    _, height = paint(dab, texels, base, np.tile(dab.colour, (len(base), 1)))
+    outline, along = _footprint(dab, texels.points)
+    front = texels.points[:, 1] < -0.5
+    edge = front & (outline > 0.97) & (outline < 1.0)                 # just inside the outline, head and tail too
+    head = edge & (along < -0.8)
+    assert head.sum() > 3 and edge.sum() > 20
+    assert height[edge].max() < 0.35 * np.median(height[front & (outline < 0.3)])   # no cliff where it ends
+
+
+def test_a_dab_clipped_away_but_for_a_sliver_leaves_little_relief(sphere):
+    mesh, band, atlas, texels = sphere
+    base = np.zeros((len(texels.points), 3))
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4)
+    _, whole = paint(dab, texels, base, np.tile(dab.colour, (len(base), 1)))
+    other = np.tile([[0.0, 0.0, 1.0]], (len(base), 1))
+    sliver = texels.points[:, 0] > 0.15                               # its colour shows along one side alone
+    other[sliver] = dab.colour[0]
+    out, clipped = paint(dab, texels, base, other)
+    shown = out[texels.points[:, 1] < -0.5, 0]
+    assert 0.0 < np.mean(shown > 0.5) < 0.1
+    assert clipped.max() < 0.5 * whole.max()
 
 
 def test_a_dab_stops_where_the_picture_or_its_paint_changes(sphere):
