@@ -14,7 +14,9 @@ each stylized render a 100 % crop (``*_crop.jpg``, 384 x 384 pixels of the
 render) shows the strokes as they are; one more render of Suzanne under a
 raking light shows the relief, and Van Gogh Along the Form is rendered on
 a torus too (``torus_van_gogh_form.jpg``), a form whose curvature has a
-direction for its strokes to follow.  ``gallery.jpg`` puts them side by
+direction for its strokes to follow.  The sphere is rendered again from straight above its north
+pole (``sphere_*_pole.jpg``), where a UV map pinches its picture and a filter in texture space pinches
+with it.  ``gallery.jpg`` puts them side by
 side at a third of their size, a row a preset.
 """
 
@@ -118,9 +120,20 @@ def unlit(obj):
         tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
 
 
-def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", shown_unlit=False, log=print):
+def from_above(obj):
+    """The camera straight above the object's north pole, as far from its centre as before, looking down: the
+    pole, where a UV sphere's map pinches its picture, seen face on."""
+    cam = bpy.context.scene.camera
+    centre = obj.matrix_world.translation
+    cam.location = centre + Vector((0.0, 0.0, (cam.location - centre).length))
+    cam.rotation_euler = (0.0, 0.0, 0.0)
+
+
+def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", shown_unlit=False, pole=None,
+           log=print):
     """Run ``preset`` on ``kind`` with the Stylize operator and render it to ``path`` (JPEG); returns seconds.
-    ``preset`` None renders the photograph itself; ``shown_unlit``: as an unlit shader shows it (:func:`unlit`)."""
+    ``preset`` None renders the photograph itself; ``shown_unlit``: as an unlit shader shows it (:func:`unlit`);
+    ``pole``: the same object rendered again from straight above (:func:`from_above`) to this path."""
     obj, size = build(kind)
     scene.setup_render(size, samples)
     bpy.context.scene.cycles.filter_width = PIXEL_FILTER
@@ -134,6 +147,9 @@ def render(kind, preset, path, *, raking=False, samples=24, quality="STANDARD", 
     settings = bpy.context.scene.render.image_settings
     settings.file_format, settings.quality = "JPEG", 92
     scene.render(path)
+    if pole is not None:
+        from_above(obj)
+        scene.render(pole)
     log(f"{kind:8s} {preset or 'photograph':15s} {seconds:6.1f} s  {path}")
     return seconds
 
@@ -164,7 +180,8 @@ def crop(path, kind):
 def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", relief=True, unlit_too=False, log=print):
     os.makedirs(out_dir, exist_ok=True)
     for kind in subjects:            # the photographs themselves, to compare against
-        render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log)
+        render(kind, None, os.path.join(out_dir, f"{kind}_photo.jpg"), log=log,
+               pole=os.path.join(out_dir, f"{kind}_photo_pole.jpg") if kind == "sphere" else None)
     if unlit_too:                    # and each render again as an unlit shader shows it
         for kind in subjects:
             render(kind, None, os.path.join(out_dir, f"{kind}_photo_unlit.jpg"), shown_unlit=True, log=log)
@@ -177,8 +194,11 @@ def run(out_dir, *, presets=PRESETS, subjects=SUBJECTS, quality="STANDARD", reli
         cells = []
         for kind in subjects:
             path = os.path.join(out_dir, f"{kind}_{preset}.jpg")
-            render(kind, preset, path, quality=quality, log=log)
+            pole = os.path.join(out_dir, f"{kind}_{preset}_pole.jpg") if kind == "sphere" else None
+            render(kind, preset, path, quality=quality, pole=pole, log=log)
             crop(path, kind)
+            if pole is not None:          # a UV map's pole, where a texture-space filter pinches
+                crop(pole, kind)
             cells.append(figures.panel(scene.read_image(path)[::3, ::3], f"{preset.replace('_', ' ').upper()}, {kind.upper()}"))
         rows.append(cells)
     if FORM_PRESET in presets:
