@@ -279,12 +279,12 @@ def find_stars(mesh, band, colours, count, radius, ring, seed=0):
     # canopy) does, an even sky does not
     stands = spot - core.at_time(0.5 * (AROUND * radius) ** 2)(lightness[None, :])[0]
     lights = candidates[stands[candidates] >= stands[candidates].max() - LIGHTS]
-    lightest = lights[np.argmax(stands[lights])]
+    first = lights[np.argmax(stands[lights])]
     rng = np.random.default_rng([int(seed), 7])
-    others = rng.permutation(lights[lights != lightest])[:CANDIDATES]   # scattered over the lights, not in a row
-    candidates = np.concatenate([[lightest], others])
+    others = rng.permutation(lights[lights != first])[:CANDIDATES]   # scattered over the lights, not in a row
+    candidates = np.concatenate([[first], others])
     radii = radius * SIZES[1] * (SIZES[0] / SIZES[1]) ** rng.random(len(candidates))   # as many small as large
-    radii[0] = radius * SIZES[0]                                        # the lightest: the largest star
+    radii[0] = radius * SIZES[0]                          # the place that stands out most: the largest star
     border = _border_points(mesh, 0.5 * radius)
     if len(border):                                      # a whole star, not one cut by the border
         clear, _ = cKDTree(border).query(band.cp[candidates])
