@@ -20,7 +20,7 @@ from .oklab import from_oklab, to_oklab, within_gamut
 from .canvas import FINE_PAINT, Texels, paint
 from .rigger import HELD, line_dabs
 from .lines import inked
-from .stroke_field import StrokeField
+from .stroke_field import StrokeField, agreement
 from .strokes import place_dabs
 from .watercolour import solid_noise
 
@@ -339,6 +339,10 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
     texel = float(np.median(texel_lengths(mesh, atlas, atlas.face))) if len(atlas.face) else band.h
     lengths = brush.lengths(texel) if brush is not None else [16 * texel]
     fields = StrokeField.layers(band, lab, lengths) if brush is not None or contours > 0 else None
+    if brush is not None:       # guides that turn within a broad stroke's length are not followed there
+        field, level = (None if guide is None else
+                        np.asarray(guide) * agreement(band, guide, lengths[0])[:, None].astype(np.float32)
+                        for guide in (field, level))
     dabs = jitter = None
     if brush is not None and brush.strength > 0:
         dabs = place_dabs(mesh, band, values, brush, structure=lab, texel=texel, palette=palette,

@@ -14,8 +14,8 @@ import numpy as np
 
 from .smoothing import GridGaussian, taper
 
-__all__ = ["StrokeField", "Swirls", "form_field", "level_field", "level_share", "sample_directions", "size_smoothings",
-           "FALLBACK_TRUST"]
+__all__ = ["StrokeField", "Swirls", "agreement", "form_field", "level_field", "level_share", "sample_directions",
+           "size_smoothings", "FALLBACK_TRUST"]
 
 
 def size_smoothings(band, sizes):
@@ -113,9 +113,10 @@ class StrokeField:
             trust[np.linalg.norm(given, axis=1) < 0.5] = 0.0          # no direction there (a flat part)
             given[trust == 0] = direction[trust == 0]
             # a fallback (trusted at FALLBACK_TRUST or less) yields to the picture's structure as far as
-            # that is sure; a field trusted fully does not
+            # that is sure, and fades out as its trust falls below FALLBACK_TRUST (where meridians meet at a
+            # pole); a field trusted fully does not
             fallback = np.clip((1.0 - trust) / (1.0 - FALLBACK_TRUST), 0.0, 1.0)
-            trust = np.where(trust > 0, 1.0 - fallback * np.sqrt(confidence), 0.0)
+            trust = (1.0 - fallback * np.sqrt(confidence)) * np.clip(trust / FALLBACK_TRUST, 0.0, 1.0)
             direction = _blend(given, direction, trust, normals)
         if level is not None:
             raw = np.asarray(level[nearest], dtype=np.float64)
@@ -197,6 +198,42 @@ def level_field(band, field, level):
     if field is not None:
         has &= np.linalg.norm(np.asarray(field, dtype=np.float64), axis=1) < 1e-3
     return np.where(has[:, None], _tangent(out, normals), 0.0).astype(np.float32)
+
+
+#: How far a guide field must agree with itself over a stroke's length (the coherence of its directions'
+#: averaged outer products, 0 to 1; see :func:`agreement`) before strokes follow it at all, and where they
+#: follow it fully.
+AGREE = (0.7, 0.95)
+
+
+def agreement(band, field, length):
+    """How far (N,; 0 to 1) strokes of ``length`` may follow a guide ``field`` (N, 3; 0 where it has no
+    direction): as far as its directions agree with one another over a stroke's length about each point.
+
+    A guide that turns within a stroke's length cannot be followed: strokes laid along it comb a herringbone
+    or ring a bullseye.  A picture's horizontal (:func:`level_field`) folds into a chevron where its UV map is
+    mirrored (Suzanne's two halves) and rings a sphere's pole in ever smaller circles; the meridians of
+    :func:`form_field` meet there as spokes, and the surface's principal directions whirl about its umbilics.
+    The outer products of the field's unit directions, averaged over a Gaussian of deviation half a stroke's
+    ``length``, have a coherence ``lambda_1 - lambda_2`` (over their trace) of 1 where the field is one
+    direction, falling towards 0 where it folds, rings or meets; it maps to 0..1 between the two of
+    :data:`AGREE`."""
+    field = np.asarray(field, dtype=np.float64)
+    norm = np.linalg.norm(field, axis=1)
+    has = norm > 1e-3
+    if not has.any():
+        return np.zeros(len(field))
+    unit = np.divide(field, norm[:, None], out=np.zeros_like(field), where=has[:, None])
+    i, j = np.triu_indices(3)
+    weights = taper(band.dist, 3.0 * band.h) * has
+    mean = GridGaussian(band, 0.5 * (0.5 * length) ** 2, weights=weights)((unit[:, i] * unit[:, j]).T)
+    tensor = np.empty((len(field), 3, 3))
+    tensor[:, i, j] = mean.T
+    tensor[:, j, i] = mean.T
+    eigen = np.linalg.eigvalsh(tensor)                   # ascending
+    coherence = (eigen[:, 2] - eigen[:, 1]) / np.maximum(eigen.sum(axis=1), 1e-12)
+    low, high = AGREE
+    return np.where(has, np.clip((coherence - low) / (high - low), 0.0, 1.0), 0.0)
 
 
 def _unit(v):

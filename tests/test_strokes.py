@@ -701,3 +701,45 @@ def test_a_swirling_brush_lays_no_level_strokes_even_on_the_pictures_dark_ground
     calm, half = share(0.0), share(0.25)
     assert np.median(calm) > 0.99 and abs(np.median(half) - 0.5) < 0.01   # a brush that never swirls: all level
     assert share(0.0, ColourInput.constant(mesh.n_input_faces, (0.5, 0.5, 0.5))) is None   # no picture
+
+
+def test_a_guide_counts_only_where_it_agrees_with_itself_over_a_strokes_length(sphere):
+    from cp_stylize.stroke_field import agreement
+
+    mesh, band, _, _ = sphere
+    n = band.cp / np.linalg.norm(band.cp, axis=1, keepdims=True)
+    length = 0.3
+    # the parallels ring the pole in ever smaller circles: no direction there over a stroke's length
+    parallels = np.cross([0.0, 0.0, 1.0], n)
+    agree = agreement(band, parallels, length)
+    from_pole = np.arccos(np.clip(np.abs(n[:, 2]), 0.0, 1.0))               # on the unit sphere: the distance
+    assert np.all(agree[from_pole < 0.5 * length] == 0.0)
+    assert np.min(agree[from_pole > 0.4 * np.pi]) > 0.95                     # about the equator: one direction
+    # a chevron: a picture's horizontal mirrored at x = 0 (Suzanne's two halves), at 45 degrees to the mirror
+    chevron = np.column_stack([np.ones(band.size), np.zeros(band.size), np.sign(band.cp[:, 0])])
+    agree = agreement(band, chevron, length)
+    side = np.abs(n[:, 1]) > 0.9                                              # where the fold runs up the surface
+    assert np.all(agree[side & (np.abs(band.cp[:, 0]) < 0.05)] < 0.05)      # folded: not followed
+    assert np.min(agree[side & (np.abs(band.cp[:, 0]) > 0.35)]) > 0.9       # a stroke's length off: followed
+    # no direction anywhere: nothing to follow
+    assert not agreement(band, np.zeros((band.size, 3)), length).any()
+
+
+def test_strokes_do_not_ring_a_pole_that_the_level_rings(sphere):
+    from cp_stylize.painting import painting
+    from cp_stylize.stroke_field import level_field
+
+    mesh, band, atlas, _ = sphere
+    centres = np.asarray(mesh.vertices)[np.asarray(mesh.input_faces)].mean(axis=1)
+    level = level_field(band, None, np.cross([0.0, 0.0, 1.0], centres))   # the picture's horizontal: the parallels
+    grey = np.full((band.size, 3), 0.4, dtype=np.float32)                  # no structure anywhere
+    brush = Brush(width=0.06, length=0.24, layers=1, chain=1, seed=3)
+    dabs = painting(mesh, band, grey, atlas, brush=brush, level=level).dabs
+    unit = dabs.centre / np.linalg.norm(dabs.centre, axis=1, keepdims=True)
+    parallels = np.cross([0.0, 0.0, 1.0], unit)
+    parallels /= np.maximum(np.linalg.norm(parallels, axis=1, keepdims=True), 1e-12)
+    along = np.abs(np.einsum("ij,ij->i", dabs.direction, parallels))
+    from_pole = np.arccos(np.clip(np.abs(unit[:, 2]), 0.0, 1.0))
+    assert np.median(along[from_pole > 0.4 * np.pi]) > 0.95          # level strokes about the equator
+    pole = from_pole < 0.15                                          # within about half a stroke of the pole
+    assert pole.sum() >= 20 and np.median(along[pole]) < 0.8         # no bullseye (0.99 if they followed it)
