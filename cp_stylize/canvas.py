@@ -138,7 +138,8 @@ class Texels:
 
 #: Share of a dab's area its own UV raster must find (inside UV triangles) before it is taken as
 #: whole; a dab that crosses a seam, or a UV map that stretches under it, is drawn from a search in
-#: space instead.
+#: space instead, as is one whose paint reaches its raster's outermost texels (the raster may have cut it
+#: off there: a straight step in its relief that a light draws as a crack).
 WHOLE = 0.92
 #: The UV raster of a dab is this much larger than its footprint at its centre (the UV map's stretch
 #: may change under it), and two texels more.
@@ -292,6 +293,7 @@ def _covering(dabs, shapes, uv_axes, texels, which):
     inside = found[1] < texels.covered
     area = np.bincount(place, weights=found[2] * texels.lengths[found[1]] ** 2 * inside, minlength=len(which))
     whole = area >= WHOLE * DAB_AREA * dabs.length[which] * dabs.width[which]
+    whole[place[_at_rim(uv_axes, texels, found[0], found[1])]] = False
     if whole.all():
         return found
     keep = whole[place]
@@ -333,6 +335,22 @@ def _raster_pairs(uv_axes, texels, which):
     position = texels.position[y[run].astype(np.int64) * size + lo[run] + col]
     found = position >= 0
     return which[unit[run[found]]], position[found]
+
+
+def _at_rim(uv_axes, texels, i, j):
+    """Whether the texels ``j`` lie on the rim (the outermost texel) of dab ``i``'s UV raster
+    (:func:`_raster_pairs`): a dab that covers one may reach beyond its raster, which cuts it off along a
+    straight line."""
+    axes, centre = _grown(uv_axes[0][i]), uv_axes[1][i]
+    y, x = np.divmod(texels.flat[j], texels.size)
+    offset = np.column_stack([x, y]) - centre
+    a, b = axes[:, 0], axes[:, 1]                                     # offset = alpha a + beta b
+    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+    alpha = (offset[:, 0] * b[:, 1] - offset[:, 1] * b[:, 0]) / det
+    beta = (a[:, 0] * offset[:, 1] - a[:, 1] * offset[:, 0]) / det
+    reach = 1.0 - 1.0 / np.maximum(np.linalg.norm(axes, axis=2), 1.0)   # a texel in from the rim
+    return (np.abs(alpha) > reach[:, 0]) | (np.abs(beta) > reach[:, 1])
 
 
 def _grown(axes):

@@ -743,3 +743,21 @@ def test_strokes_do_not_ring_a_pole_that_the_level_rings(sphere):
     assert np.median(along[from_pole > 0.4 * np.pi]) > 0.95          # level strokes about the equator
     pole = from_pole < 0.15                                          # within about half a stroke of the pole
     assert pole.sum() >= 20 and np.median(along[pole]) < 0.8         # no bullseye (0.99 if they followed it)
+
+
+def test_a_dab_that_its_uv_raster_would_cut_off_is_drawn_whole(sphere, monkeypatch):
+    mesh, band, atlas, texels = sphere
+    # near a UV sphere's poles the map stretches fast: a dab's raster, sized by the map at its centre, is too
+    # small on one side of it; a dab cut off there would stand in the relief with a straight step (a crack)
+    brush = Brush(width=0.12, length=0.45, layers=1, seed=2)
+    grey = np.full((band.size, 3), 0.5, dtype=np.float32)
+    dabs = place_dabs(mesh, band, grey, brush, texel=0.01)
+    base = np.zeros((len(texels.points), 3))
+    reference = np.full((len(texels.points), 3), 0.5)
+    drawn, height = paint(dabs, texels, base, reference)
+    monkeypatch.setattr(canvas, "WHOLE", 2.0)                  # every dab from the search in space
+    searched, searched_height = paint(dabs, texels, base, reference)
+    inside = np.arange(len(texels.points)) < texels.covered
+    assert np.abs(searched_height[inside]).max() > 0.1
+    np.testing.assert_allclose(height[inside], searched_height[inside], atol=1e-3)     # (1.17 off where cut)
+    np.testing.assert_allclose(drawn[inside], searched[inside], atol=1e-3)
