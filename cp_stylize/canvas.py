@@ -287,13 +287,14 @@ def _covering(dabs, shapes, uv_axes, texels, which):
     """The texels each dab of ``which`` (sorted indices) covers: pairs of dabs ``i`` and texels ``j`` with the coverage
     ``alpha`` (anti-aliased over a texel) and the texel's place in the dab (``along`` its length and
     ``across`` its width, each in [-1, 1])."""
-    i, j = _raster_pairs(uv_axes, texels, which)
+    i, j, leaves = _raster_pairs(uv_axes, texels, which)
     found = _geometry(shapes, texels, i, j)
     place = np.searchsorted(which, found[0])                         # ``which`` is sorted
     inside = found[1] < texels.covered
     area = np.bincount(place, weights=found[2] * texels.lengths[found[1]] ** 2 * inside, minlength=len(which))
     whole = area >= WHOLE * DAB_AREA * dabs.length[which] * dabs.width[which]
     whole[place[_at_rim(uv_axes, texels, found[0], found[1])]] = False
+    whole &= ~leaves
     if whole.all():
         return found
     keep = whole[place]
@@ -302,7 +303,11 @@ def _covering(dabs, shapes, uv_axes, texels, which):
 
 
 def _raster_pairs(uv_axes, texels, which):
-    """Pairs (dab, texel index) of the texels inside each dab's UV parallelogram (with slack)."""
+    """Pairs (dab, texel index) of the texels inside each dab's UV parallelogram (with slack), and whether
+    each dab of ``which`` runs on past its chart's edge: its footprint's parallelogram (without the slack)
+    holds atlas texels outside the charts.  Its paint there lies on another chart, which the raster does
+    not see: drawn from the raster alone, it would stop along the chart's edge, as a step in its relief
+    that a light draws as a crack."""
     axes, centre = uv_axes[0][which], uv_axes[1][which]
     size = texels.size
     axes = _grown(axes)
@@ -334,7 +339,19 @@ def _raster_pairs(uv_axes, texels, which):
     run, col = expand_runs(span)
     position = texels.position[y[run].astype(np.int64) * size + lo[run] + col]
     found = position >= 0
-    return which[unit[run[found]]], position[found]
+    outside = np.flatnonzero(~found)
+    dab = unit[run[outside]]
+    offset = np.column_stack([lo[run[outside]] + col[outside], y[run[outside]]]) - centre[dab]
+    a, b = uv_axes[0][which][dab, 0], uv_axes[0][which][dab, 1]          # the footprint, not grown
+    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+    within = ((np.abs(offset[:, 0] * b[:, 1] - offset[:, 1] * b[:, 0]) < np.abs(det))
+              & (np.abs(a[:, 0] * offset[:, 1] - a[:, 1] * offset[:, 0]) < np.abs(det)))
+    leaves = np.bincount(dab[within], minlength=len(which)) > 0
+    a, b = uv_axes[0][which][:, 0], uv_axes[0][which][:, 1]        # and where it runs off the atlas
+    reach = np.abs(a) + np.abs(b)
+    leaves |= np.any((centre - reach < -0.5) | (centre + reach > size - 0.5), axis=1)
+    return which[unit[run[found]]], position[found], leaves
 
 
 def _at_rim(uv_axes, texels, i, j):

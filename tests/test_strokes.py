@@ -761,3 +761,22 @@ def test_a_dab_that_its_uv_raster_would_cut_off_is_drawn_whole(sphere, monkeypat
     assert np.abs(searched_height[inside]).max() > 0.1
     np.testing.assert_allclose(height[inside], searched_height[inside], atol=1e-3)     # (1.17 off where cut)
     np.testing.assert_allclose(drawn[inside], searched[inside], atol=1e-3)
+
+
+def test_a_dab_that_runs_a_little_way_over_a_uv_seam_is_drawn_on_both_sides(sphere, monkeypatch):
+    mesh, band, atlas, texels = sphere
+    # the UV sphere's seam runs along y = 0, x < 0 (u = 0 meets u = 1 at the atlas's two edges); a dab along
+    # the equator that reaches over it by a few per cent of its area must go on over it, or its relief
+    # stands with a step along the seam (a crack)
+    phi = np.pi - 0.36                                               # its tail's tip 0.04 over the seam
+    dab = _one_dab(mesh, [np.cos(phi), np.sin(phi), 0.0], [-np.sin(phi), np.cos(phi), 0.0], length=0.8, width=0.2)
+    dab.ends = np.zeros(1, np.int8)                                  # within its stroke: paint to its tip
+    base = np.zeros((len(texels.points), 3))
+    reference = np.tile(dab.colour, (len(base), 1))
+    _, height = paint(dab, texels, base, reference)
+    monkeypatch.setattr(canvas, "WHOLE", 2.0)                  # drawn from the search in space
+    _, searched = paint(dab, texels, base, reference)
+    inside = np.arange(len(texels.points)) < texels.covered
+    over = inside & (texels.points[:, 1] < 0) & (texels.points[:, 0] < -0.9)     # across the seam
+    assert np.any(searched[over] > 0.05)
+    np.testing.assert_allclose(height[inside], searched[inside], atol=1e-3)
