@@ -141,6 +141,11 @@ class Texels:
 #: space instead, as is one whose paint reaches its raster's outermost texels (the raster may have cut it
 #: off there: a straight step in its relief that a light draws as a crack).
 WHOLE = 0.92
+#: A dab's paint fades out where the surface turns away from it: none where a texel's normal and the dab's
+#: make a cosine of the first or less (the far side of a thin part, or round a sharp bend), all of it from the
+#: second.  A cut at one cosine ran along the mesh's edges where a broad dab lies over a sharp bend (a brow),
+#: as a step in its relief that a light draws as a crack.
+FACING = (0.0, 0.5)
 #: The UV raster of a dab is this much larger than its footprint at its centre (the UV map's stretch
 #: may change under it), and two texels more.
 RASTER_SLACK = 1.1
@@ -426,13 +431,16 @@ def _geometry(shapes, texels, i, j):
     near = np.abs(v) <= 0.5 * width + lengths
     i, j, delta, a, v, half_length, width, lengths = (x[near] for x in (i, j, delta, a, v, half_length, width, lengths))
     normal = shapes.normal[i]
-    own = ((np.einsum("ij,ij->i", texels.normals[j], normal) > 0.3) & (texels.pieces[j] == shapes.piece[i])
+    facing = np.einsum("ij,ij->i", texels.normals[j], normal)
+    own = ((facing > FACING[0]) & (texels.pieces[j] == shapes.piece[i])
            & (np.abs(np.einsum("ij,ij->i", delta, normal)) < half_length))
-    i, j, a, v, half_length, width, lengths = (x[own] for x in (i, j, a, v, half_length, width, lengths))
+    i, j, a, v, half_length, width, lengths, facing = (x[own] for x in (i, j, a, v, half_length, width, lengths,
+                                                                       facing))
     along = np.clip(a, -1.0, 1.0)
     half_width = 0.5 * width * _half_width(along)
     outside = np.maximum(np.abs(v) - half_width, (np.abs(a) - 1.0) * half_length)
-    alpha = np.clip(0.5 - outside / lengths, 0.0, 1.0)
+    alpha = (np.clip(0.5 - outside / lengths, 0.0, 1.0)
+             * smooth_step((facing - FACING[0]) / (FACING[1] - FACING[0])))
     covered = alpha > 0
     across = np.clip(v / np.maximum(half_width, 1e-9), -1.0, 1.0)
     return i[covered], j[covered], alpha[covered], along[covered], across[covered]

@@ -780,3 +780,21 @@ def test_a_dab_that_runs_a_little_way_over_a_uv_seam_is_drawn_on_both_sides(sphe
     over = inside & (texels.points[:, 1] < 0) & (texels.points[:, 0] < -0.9)     # across the seam
     assert np.any(searched[over] > 0.05)
     np.testing.assert_allclose(height[inside], searched[inside], atol=1e-3)
+
+
+def test_a_broad_dab_over_a_sharp_bend_fades_out_instead_of_stopping_in_a_step(sphere):
+    mesh, band, atlas, texels = sphere
+    # a dab as long as half the sphere: where the surface turns away from it, its paint thins out over the
+    # turn; a cut at one angle stood in its relief as a step along the mesh's edges (a crack under a light)
+    dab = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=3.0, width=0.3)
+    dab.ends = np.zeros(1, np.int8)
+    base = np.zeros((len(texels.points), 3))
+    _, height = paint(dab, texels, base, np.tile(dab.colour, (len(base), 1)))
+    p = texels.points
+    line = np.flatnonzero((p[:, 1] < 0) & (np.abs(p[:, 0]) < 0.01) & (p[:, 2] > 0))   # up its centre line
+    line = line[np.argsort(p[line, 2])]
+    profile = height[line]
+    assert profile.max() > 0.3 and profile[-1] == 0.0               # it ends before the sphere's pole
+    turned = np.einsum("ij,ij->i", texels.normals[line], dab.normal)
+    assert np.all(profile[turned < canvas.FACING[0]] == 0.0)        # none on the surface turned away
+    assert np.max(np.abs(np.diff(profile))) < 0.15 * profile.max()  # and no step on the way
