@@ -346,15 +346,12 @@ def _raster_pairs(uv_axes, texels, which):
     found = position >= 0
     outside = np.flatnonzero(~found)
     dab = unit[run[outside]]
+    footprint = uv_axes[0][which]                                    # not grown
     offset = np.column_stack([lo[run[outside]] + col[outside], y[run[outside]]]) - centre[dab]
-    a, b = uv_axes[0][which][dab, 0], uv_axes[0][which][dab, 1]          # the footprint, not grown
-    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
-    within = ((np.abs(offset[:, 0] * b[:, 1] - offset[:, 1] * b[:, 0]) < np.abs(det))
-              & (np.abs(a[:, 0] * offset[:, 1] - a[:, 1] * offset[:, 0]) < np.abs(det)))
+    alpha, beta = _in_axes(offset, footprint[dab])
+    within = (np.abs(alpha) < 1.0) & (np.abs(beta) < 1.0)
     leaves = np.bincount(dab[within], minlength=len(which)) > 0
-    a, b = uv_axes[0][which][:, 0], uv_axes[0][which][:, 1]        # and where it runs off the atlas
-    reach = np.abs(a) + np.abs(b)
+    reach = np.abs(footprint[:, 0]) + np.abs(footprint[:, 1])      # and where it runs off the atlas
     leaves |= np.any((centre - reach < -0.5) | (centre + reach > size - 0.5), axis=1)
     return which[unit[run[found]]], position[found], leaves
 
@@ -365,14 +362,19 @@ def _at_rim(uv_axes, texels, i, j):
     straight line."""
     axes, centre = _grown(uv_axes[0][i]), uv_axes[1][i]
     y, x = np.divmod(texels.flat[j], texels.size)
-    offset = np.column_stack([x, y]) - centre
-    a, b = axes[:, 0], axes[:, 1]                                     # offset = alpha a + beta b
-    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
-    alpha = (offset[:, 0] * b[:, 1] - offset[:, 1] * b[:, 0]) / det
-    beta = (a[:, 0] * offset[:, 1] - a[:, 1] * offset[:, 0]) / det
+    alpha, beta = _in_axes(np.column_stack([x, y]) - centre, axes)
     reach = 1.0 - 1.0 / np.maximum(np.linalg.norm(axes, axis=2), 1.0)   # a texel in from the rim
     return (np.abs(alpha) > reach[:, 0]) | (np.abs(beta) > reach[:, 1])
+
+
+def _in_axes(offset, axes):
+    """The coordinates ``(alpha, beta)`` of UV offsets (M, 2) in dabs' half axes (M, 2, 2):
+    ``offset = alpha a + beta b`` for ``a, b = axes[:, 0], axes[:, 1]``."""
+    a, b = axes[:, 0], axes[:, 1]
+    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+    return ((offset[:, 0] * b[:, 1] - offset[:, 1] * b[:, 0]) / det,
+            (a[:, 0] * offset[:, 1] - a[:, 1] * offset[:, 0]) / det)
 
 
 def _grown(axes):
