@@ -32,7 +32,7 @@ __all__ = ["Texels", "paint", "clipped", "CLIP", "DAB_AREA", "HEAD_END", "TAIL_E
 #: A dab's full height (a height of 1), as a share of the widest strokes' width: the relief's depth (the Bump
 #: node's distance at Relief 1).  Impasto: the strokes' bodies, rims and furrows read under an ordinary key
 #: light, and a raking light casts each stroke's ridge.
-THICKNESS = 0.12
+THICKNESS = 0.16
 
 #: A dab is clipped where the colour under it differs from its own by more than this (OKLab), and
 #: gone at :data:`CLIP_GONE`.
@@ -48,19 +48,23 @@ FLATTEN = 0.35
 #: head, and within three times that at its tail: a stroke's edge stands as a rounded step, not a cliff of
 #: one texel.
 EDGE = 0.45
-#: A stroke's paint is this much thicker at its head (where the brush touched down) and a stroke's last dab this
-#: much thinner at its tail; each dab's paint is raised by this much in a rim along its sides (paint the
-#: bristles pushed aside).
-HEAD = 0.2
+#: A stroke's paint is this much thicker at its head, where the loaded brush touched down and the paint piles
+#: up in a blob, and a stroke's last dab this much thinner at its tail; each dab's paint is raised by this much
+#: in a low rim along its sides (paint the bristles pushed aside).
+HEAD = 0.8
 TAIL = 0.4
-RIM = 0.3
+RIM = 0.15
 #: The rim's crest, as a share of the dab's half width out from its centre line: where the edge's ramp begins.
 RIM_AT = 0.55
-#: A dab's paint stands this high in its body (a share of its thickness, without its rim and bristle marks).
+#: A dab's paint stands this high in its body (a share of its thickness, without its rim and bristle marks) ...
 BODY = 0.5
+#: ... this share of it rounded, highest on the dab's centre line and falling to its sides as ``1 - x**2``
+#: over its footprint's half width ``x`` (the rest stands flat): a stroke's body is a mound, not a strip
+#: between two rims, which under a raking light reads as a groove.
+DOME = 0.6
 #: How deep the bristle marks in a dab are, as a share of its thickness, and how much lighter and darker they
 #: make its colour.
-GROOVE_DEPTH = 0.12
+GROOVE_DEPTH = 0.08
 STREAK = 0.07
 #: A dab's second colour (:attr:`Dabs.second`) meets its first over this share of its width, in streaks along
 #: the bristles this much of its half width deep.
@@ -497,7 +501,8 @@ def _composite(dabs, texels, colours, first, i, j, alpha, shape, along, across, 
     edge_across, edge_along = edge / (width / 2), edge / (dabs.length[i] / 2)
     side = (smooth_step((1.0 - np.abs(footprint)) / edge_across) * smooth_step((along + 1.0) / edge_along)
             * smooth_step((1.0 - along) / (3.0 * edge_along)))
-    profile = thickness * side * (BODY + rim + GROOVE_DEPTH * ridge)
+    body = BODY * (1.0 - DOME * footprint**2)
+    profile = thickness * side * (body + rim + GROOVE_DEPTH * ridge)
     scrape = np.where(opens | (dabs.layer[i] > dabs.layer.min()), FLATTEN, 1.0)   # fine strokes lie on the paint
     shade = 1.0 + STREAK * groove
     order = np.lexsort((-i, j))                # per texel, the last dab painted first

@@ -269,7 +269,9 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     body = height[middle & (across < 0.05)]
     assert body.min() > 0.25 * height.max()       # its body stands, bristle furrows and all (the head and rims stand highest)
     rim = height[middle & (np.abs(across - 0.2 * canvas.RIM_AT) < 0.01)]   # the rim's crest
-    assert len(rim) > 2 and rim.mean() > 1.15 * body.mean()          # paint pushed aside: a rim along its sides
+    assert len(rim) > 2 and rim.mean() > 1.1 * body.mean()           # paint pushed aside: a rim along its sides
+    head = height[front & (np.abs((texels.points - one.centre[0]) @ one.direction[0] + 0.7 * 0.4) < 0.03) & (across < 0.05)]
+    assert len(head) > 2 and head.mean() > 1.5 * body.mean()         # and a blob where the brush touched down
     # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
     beyond = middle & (across > 0.2 + np.max(texels.lengths))
     assert beyond.sum() > 5 and not np.any(height[beyond] > 0)
