@@ -263,14 +263,15 @@ def test_a_dabs_paint_stands_with_a_rim_along_its_sides_and_ends_within_a_short_
     base = np.zeros((len(texels.points), 3))
     out, height = paint(one, texels, base, np.tile(one.colour, (len(base), 1)))
     across = np.abs(texels.points @ np.cross(one.normal[0], one.direction[0]))
-    along = np.abs((texels.points - one.centre[0]) @ one.direction[0])
+    signed = (texels.points - one.centre[0]) @ one.direction[0]     # from the centre towards the tail
+    along = np.abs(signed)
     front = texels.points[:, 1] < -0.5                               # the dab's side of the sphere
     middle = front & (along < 0.1)                                   # across the dab's middle
     body = height[middle & (across < 0.05)]
     assert body.min() > 0.25 * height.max()       # its body stands, bristle furrows and all (the head and rims stand highest)
     rim = height[middle & (np.abs(across - 0.2 * canvas.RIM_AT) < 0.01)]   # the rim's crest
     assert len(rim) > 2 and rim.mean() > 1.1 * body.mean()           # paint pushed aside: a rim along its sides
-    head = height[front & (np.abs((texels.points - one.centre[0]) @ one.direction[0] + 0.7 * 0.4) < 0.03) & (across < 0.05)]
+    head = height[front & (np.abs(signed + 0.7 * 0.4) < 0.03) & (across < 0.05)]   # 0.7 of the half length (0.4) headwards
     assert len(head) > 2 and head.mean() > 1.5 * body.mean()         # and a blob where the brush touched down
     # the paint ends within EDGE of its half width (and a texel): none beyond the dab's edge
     beyond = middle & (across > 0.2 + np.max(texels.lengths))
