@@ -483,4 +483,4 @@ def _picked_up(band, values, points, normals, pieces, direction, length):
     along = along.reshape(-1, 3)
     onto, _ = _onto(band, along, np.repeat(points, k, axis=0))
     read = band.interpolate(values, onto, np.repeat(normals, k, axis=0), np.repeat(pieces, k))
-    return read.reshape(len(points), k, -1).mean(axis=1)
+    return read.reshape(len(points), k, read.shape[-1]).mean(axis=1)      # (no dabs: none, not an error)

@@ -801,3 +801,13 @@ def test_a_broad_dab_over_a_sharp_bend_fades_out_instead_of_stopping_in_a_step(s
     turned = np.einsum("ij,ij->i", texels.normals[line], dab.normal)
     assert np.all(profile[turned < canvas.FACING[0]] == 0.0)        # none on the surface turned away
     assert np.max(np.abs(np.diff(profile))) < 0.15 * profile.max()  # and no step on the way
+
+
+def test_no_dabs_pick_up_no_colour_without_an_error(sphere):
+    from cp_stylize.strokes import _picked_up
+
+    mesh, band, _, _ = sphere
+    colours = _stripes(band, [0, 0, 1])
+    none = np.zeros((0, 3))
+    picked = _picked_up(band, colours, none, none, np.zeros(0, np.int64), none, np.zeros(0))
+    assert picked.shape == (0, colours.shape[1])
