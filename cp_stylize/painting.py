@@ -36,7 +36,10 @@ GRAIN_REACH = 0.12
 LINE_EDGE = 0.04
 #: The picture's thin dark lines (:func:`cp_stylize.contours.thin_lines`: a crane's jib, a mast, a fence
 #: post, too thin for the finest dab) are inked this many times the Detail setting (at most fully), with a
-#: closing disc of this share of the finest dabs' width, and at least 1.5 texels; each is drawn as a
+#: closing disc of this share of the finest dabs' width, and at least 1.5 texels (the disc fills in lines up to
+#: about its diameter wide: a forest's bare branches against the sky, three to five texels wide where the
+#: finest dabs are about five, are lines the finest dab does not hold; they come out as smudges if left to
+#: it); each is drawn as a
 #: rigger's line this share of the finest dabs' width wide (and at least its own) where it is inked fully,
 #: and narrower as it is inked less (a faint line stays fine rather than spread as a grey smear).
 THIN = 2.5
@@ -44,7 +47,7 @@ THIN = 2.5
 #: of the finest dabs' widths times the share it falls short by (a mast, a jib, a cable): a short faint line,
 #: thinner than the finest dab and barely darker than the paint, reads as a crack in it, not as a twig.
 LONG_RUN = 8.0
-THIN_RADIUS = 0.4
+THIN_RADIUS = 0.6
 THIN_WIDTH = 0.7
 #: Lines are laid with a brush, not drawn with a pen: a brush's pressure swells and eases along a line, by a
 #: smooth random function of the surface (:func:`cp_stylize.watercolour.solid_noise`, its features this many

@@ -811,3 +811,25 @@ def test_no_dabs_pick_up_no_colour_without_an_error(sphere):
     none = np.zeros((0, 3))
     picked = _picked_up(band, colours, none, none, np.zeros(0, np.int64), none, np.zeros(0))
     assert picked.shape == (0, colours.shape[1])
+
+
+@pytest.mark.parametrize("half", [0.015, 0.042])
+def test_a_line_up_to_the_finest_dabs_width_is_laid_as_a_line_not_left_to_the_dabs(sphere, half):
+    from cp_stylize.painting import Painting
+
+    mesh, band, atlas, texels = sphere
+    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.7, 0.7, 0.7))
+    corners = mesh.vertices[mesh.input_faces]
+
+    def picture(faces, barys):                 # light grey, a dark line along the equator 2 * half wide
+        z = np.einsum("nk,nk->n", barys, corners[faces][:, :, 2])
+        return np.where(np.abs(z) < half, 0.15, 0.7)[:, None] * np.ones(3)
+
+    base = np.full((len(texels.points), 3), 0.7)
+    where = (texels.flat, texels.points, *atlas_points(mesh, atlas, 4)[2:])
+    plain, _ = Painting(mesh, atlas, one, source=picture)(where, base, None)
+    lined, _ = Painting(mesh, atlas, one, source=picture, detail=0.4, fine=0.1)(where, base, None)
+    on, away = np.abs(texels.points[:, 2]) < 0.5 * half, texels.points[:, 1] > -0.5
+    # a hairline and a branch 0.084 wide, under the finest dabs' 0.1, are both lines: a bare branch against
+    # the sky is drawn, not smudged by dabs too broad to hold it
+    assert (on & away).sum() > 50 and (plain - lined)[on & away].mean() > 0.15
