@@ -642,21 +642,29 @@ def test_a_painting_with_sheen_lights_its_dabs_from_their_own_relief_and_changes
     assert away.sum() > 1000 and np.array_equal(lit[away], plain[away])
 
 
-def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relief(sphere):
+def _equator_line(sphere, half, **painting):
+    """A light grey picture with a dark line ``2 * half`` wide along the sphere's equator, painted with one broad
+    grey dab on the sphere's front and with ``painting`` (:class:`~cp_stylize.painting.Painting`'s keywords):
+    the painted texels' colours and height."""
     from cp_stylize.painting import Painting
 
     mesh, band, atlas, texels = sphere
     one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.7, 0.7, 0.7))
     corners = mesh.vertices[mesh.input_faces]
 
-    def picture(faces, barys):                 # light grey, with a thin dark line along the equator
+    def picture(faces, barys):
         z = np.einsum("nk,nk->n", barys, corners[faces][:, :, 2])
-        return np.where(np.abs(z) < 0.015, 0.15, 0.7)[:, None] * np.ones(3)
+        return np.where(np.abs(z) < half, 0.15, 0.7)[:, None] * np.ones(3)
 
     base = np.full((len(texels.points), 3), 0.7)
     where = (texels.flat, texels.points, *atlas_points(mesh, atlas, 4)[2:])
-    plain, _ = Painting(mesh, atlas, one, source=picture)(where, base, None)
-    lined, height = Painting(mesh, atlas, one, source=picture, detail=0.4, fine=0.1)(where, base, None)
+    return Painting(mesh, atlas, one, source=picture, **painting)(where, base, None)
+
+
+def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relief(sphere):
+    texels = sphere[3]
+    plain, _ = _equator_line(sphere, 0.015)
+    lined, height = _equator_line(sphere, 0.015, detail=0.4, fine=0.1)
     z, y = texels.points[:, 2], texels.points[:, 1]
     on, off = np.abs(z) < 0.008, np.abs(z) > 0.1
     assert on.sum() > 100 and (plain - lined)[on].mean() > 0.2          # the line is painted dark
@@ -666,7 +674,7 @@ def test_the_pictures_thin_lines_are_laid_as_dabs_of_dark_paint_that_leave_relie
     # a shade of the paint under it, not the ink's black: grey stays grey, a third of the way down
     assert np.abs(np.diff(lined[on & away], axis=1)).max() < 0.02 and lined[on & away].mean() > 0.25
     # at a low Detail a line as long as this one is laid fainter (and a short one not at all: test_rigger)
-    faint, _ = Painting(mesh, atlas, one, source=picture, detail=0.15, fine=0.1)(where, base, None)
+    faint, _ = _equator_line(sphere, 0.015, detail=0.15, fine=0.1)
     assert 0.05 < (plain - faint)[on].mean() < 0.7 * (plain - lined)[on].mean()
 
 
@@ -813,23 +821,12 @@ def test_no_dabs_pick_up_no_colour_without_an_error(sphere):
     assert picked.shape == (0, colours.shape[1])
 
 
-@pytest.mark.parametrize("half", [0.015, 0.042])
-def test_a_line_up_to_the_finest_dabs_width_is_laid_as_a_line_not_left_to_the_dabs(sphere, half):
-    from cp_stylize.painting import Painting
-
-    mesh, band, atlas, texels = sphere
-    one = _one_dab(mesh, [0.0, -1.0, 0.0], [0, 0, 1], length=0.8, width=0.4, colour=(0.7, 0.7, 0.7))
-    corners = mesh.vertices[mesh.input_faces]
-
-    def picture(faces, barys):                 # light grey, a dark line along the equator 2 * half wide
-        z = np.einsum("nk,nk->n", barys, corners[faces][:, :, 2])
-        return np.where(np.abs(z) < half, 0.15, 0.7)[:, None] * np.ones(3)
-
-    base = np.full((len(texels.points), 3), 0.7)
-    where = (texels.flat, texels.points, *atlas_points(mesh, atlas, 4)[2:])
-    plain, _ = Painting(mesh, atlas, one, source=picture)(where, base, None)
-    lined, _ = Painting(mesh, atlas, one, source=picture, detail=0.4, fine=0.1)(where, base, None)
+def test_a_line_up_to_the_finest_dabs_width_is_laid_as_a_line_not_left_to_the_dabs(sphere):
+    texels = sphere[3]
+    half = 0.042
+    plain, _ = _equator_line(sphere, half)
+    lined, _ = _equator_line(sphere, half, detail=0.4, fine=0.1)
     on, away = np.abs(texels.points[:, 2]) < 0.5 * half, texels.points[:, 1] > -0.5
-    # a hairline and a branch 0.084 wide, under the finest dabs' 0.1, are both lines: a bare branch against
-    # the sky is drawn, not smudged by dabs too broad to hold it
+    # a branch 0.084 wide, under the finest dabs' 0.1, is a line as a hairline is (the test above): a bare
+    # branch against the sky is drawn, not smudged by dabs too broad to hold it
     assert (on & away).sum() > 50 and (plain - lined)[on & away].mean() > 0.15
