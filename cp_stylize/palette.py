@@ -28,6 +28,12 @@ its own lightness lies among the palette colours' lightnesses, so that the
 result's lightness is the picture's (within the palette's range) and the
 palette chooses the hue and chroma: a dark forest floor stays dark, a pale
 wall stays pale, whatever share of the tones the weights give each colour.
+``keep_darks`` keeps more of it in the picture's darks than in its lights:
+the share kept rises from ``keep_values`` towards 1 as the square of how
+far a colour's tone rank lies below the lightest, so a forest's shade and
+a wet asphalt stay as dark as the palette's darks allow, while its lights
+still spread over the palette's light colours (a painter keys the darks to
+the subject and paints the lights in the palette's own).
 
 The palette colours are blended by how well they fit (a soft choice: no hard
 splits where a tone crosses from one colour to the next).  ``fidelity``
@@ -151,7 +157,7 @@ def tone_ranks(lightness):
     return np.interp(lightness, np.linspace(0.0, 1.0, TONE_BINS + 1), edges)
 
 
-def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=0.0, hue_snap=0.0):
+def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=0.0, keep_darks=0.0, hue_snap=0.0):
     """The colours (M, 3) mapped onto a palette by tone and hue (see the module's notes).
 
     Parameters
@@ -183,6 +189,8 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
         raise ValueError(f"fidelity must lie in [0, 1], got {fidelity!r}")
     if not 0.0 <= keep_values <= 1.0:
         raise ValueError(f"keep_values must lie in [0, 1], got {keep_values!r}")
+    if not 0.0 <= keep_darks <= 1.0:
+        raise ValueError(f"keep_darks must lie in [0, 1], got {keep_darks!r}")
     if not 0.0 <= hue_snap <= 1.0:
         raise ValueError(f"hue_snap must lie in [0, 1], got {hue_snap!r}")
     palette, weights = check_palette(palette, weights)
@@ -192,13 +200,14 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     centres = np.cumsum(weights) - weights / 2                    # each colour's share of the ranks
     lab = to_oklab(colours[:, :3])
     ranks = tone_ranks(lab[:, 0])
-    if keep_values > 0:         # the rank at which the palette's lightness is the colour's own
-        ranks = (1.0 - keep_values) * ranks + keep_values * np.interp(lab[:, 0], lab_palette[:, 0], centres)
+    kept = keep_values + keep_darks * (1.0 - keep_values) * (1.0 - ranks) ** 2     # the share of the own lightness
+    if np.any(kept > 0):        # the rank at which the palette's lightness is the colour's own
+        ranks = (1.0 - kept) * ranks + kept * np.interp(lab[:, 0], lab_palette[:, 0], centres)
     out = np.empty((len(colours), 3))
 
     def chunk(s):
         part = slice(s, s + _CHUNK)
-        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity, keep_values,
+        out[part] = _mapped(lab[part], ranks[part], lab_palette, weights, centres, fidelity, kept[part],
                             hue_snap)
 
     map_parallel(chunk, range(0, len(colours), _CHUNK))
@@ -207,8 +216,9 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     return result
 
 
-def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hue_snap):
-    """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3) and tone ``ranks`` (M,)."""
+def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, kept, hue_snap):
+    """OKLab colours (M, 3) of :func:`map_to_palette` for OKLab ``lab`` (M, 3), tone ``ranks`` (M,) and the
+    share of their own lightness ``kept`` (M,)."""
     chroma = np.hypot(lab[:, 1], lab[:, 2])
     palette_chroma = np.hypot(lab_palette[:, 1], lab_palette[:, 2])
     # how much a hue counts: nothing for neutral greys (chroma up to HUE_START * GREY: asphalt), up to
@@ -232,7 +242,7 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, keep_values, hu
         mix[:, channels] = fit @ lab_palette[:, channels]
     mix[:, 1:] = kept_chroma(mix[:, 1:], fit @ palette_chroma)
     darkest, lightest = lab_palette[0, 0], lab_palette[-1, 0]
-    spread = TONE_SPREAD * (1.0 - keep_values)     # the picture's own lightness needs no spreading
+    spread = TONE_SPREAD * (1.0 - kept)     # the picture's own lightness needs no spreading
     ramp = ((1.0 - spread) * np.interp(ranks, centres, lab_palette[:, 0])     # the palette's lightness at the
             + spread * (darkest + (lightest - darkest) * ranks))             # rank, spread evenly in part
     lightness = (1.0 - TONE_KEEP) * mix[:, 0] + TONE_KEEP * ramp

@@ -160,6 +160,12 @@ RUN = {p.name: p for p in (
                                             "its weight's share), 1 keeps the picture's lightness and lets the "
                                             "palette choose hue and chroma", 0.0, 1.0, 0.0,
               file=("noise", "keep_values")),
+    Parameter("keep_darks", "Keep Darks", "How much more of the picture's own light and dark the palette keeps in "
+                                          "its darks than in its lights: the share kept rises from Keep Values "
+                                          "towards 1 in the darkest tones (0: as much in every tone; a forest's "
+                                          "shade stays dark while its lights take the palette's light colours)",
+              0.0, 1.0, 0.0,
+              file=("noise", "keep_darks")),
     Parameter("hue_snap", "Palette Hues", "How far the hues Fidelity brings back turn to the palette's nearest "
                                           "hues: 0 the picture's own hues, 1 the palette's (a grey-blue sky takes "
                                           "the palette's blue-green, not a lilac the palette lacks; at Fidelity 1, "

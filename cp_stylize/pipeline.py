@@ -284,7 +284,7 @@ def _recolour(settings):
     def recolour(picture):
         return map_to_palette(picture, settings.palette, settings.palette_weights or None,
                               fidelity=settings.fidelity, keep_values=settings.keep_values,
-                              hue_snap=settings.hue_snap)
+                              keep_darks=settings.keep_darks, hue_snap=settings.hue_snap)
     return recolour
 
 

@@ -203,6 +203,7 @@ class StylizeSettings:
     stars: int = RUN["stars"].default              # stars in the picture's sky (cp_stylize.stars)
     fidelity: float = RUN["fidelity"].default      # mapping "tone": how much of the picture's own colours
     keep_values: float = RUN["keep_values"].default   # mapping "tone": how much of the picture's own lightness
+    keep_darks: float = RUN["keep_darks"].default     # and how much more of it in its darks
     hue_snap: float = RUN["hue_snap"].default      # mapping "tone": how far its hues turn to the palette's
     contours: float = RUN["contours"].default      # lines along the strong edges (cp_stylize.contours)
     relief: float = RUN["relief"].default          # the strokes' height, as a second image

@@ -7,6 +7,8 @@ from cp_stylize.oklab import hue_difference, to_oklab
 from cp_stylize.palette import map_to_palette, palette_distance, palette_noise
 
 NIGHT = ["#0b1a3a", "#1d3b72", "#3c5fc0", "#6d8fd0", "#e6b12f", "#a9c3dd", "#f3d54e"]
+SUNFLOWERS = ["#3b2412", "#6a4a18", "#8a3f1c", "#b07a1e", "#5c98a0", "#d8701a", "#d99a2b", "#f0b81c", "#f7d44a",
+              "#f9eaa0", "#98c8c8"]
 
 
 def _rgb(colours):
@@ -146,6 +148,31 @@ def test_values_keep_the_pictures_own_light_and_dark():
     assert np.corrcoef(own, kept)[0, 1] > 0.97                          # (the ground below the palette is clamped)
     with pytest.raises(ValueError, match=r"keep_values must lie in \[0, 1\], got -1"):
         map_to_palette(picture, palette, keep_values=-1)
+
+
+def test_keep_darks_keeps_the_pictures_darks_and_leaves_its_lights_to_the_palette():
+    """Keep Darks keeps more of the picture's own lightness the darker a tone ranks: a mostly dark picture's
+    darks, lifted by a partial Keep Values, come back down towards their own lightness, while its lightest tones
+    map as they did."""
+    palette = _rgb(SUNFLOWERS)
+    rng = np.random.default_rng(5)
+    grey = np.concatenate([rng.uniform(0.08, 0.2, 600), rng.uniform(0.25, 0.5, 300), rng.uniform(0.7, 0.9, 100)])
+    picture = np.repeat(grey[:, None], 3, axis=1)
+    own = to_oklab(picture)[:, 0]
+    even = to_oklab(map_to_palette(picture, palette, keep_values=0.4))[:, 0]
+    darks = to_oklab(map_to_palette(picture, palette, keep_values=0.4, keep_darks=1.0))[:, 0]
+    dark, light = own < np.quantile(own, 0.6), own > np.quantile(own, 0.95)
+    floor = np.maximum(own, to_oklab(palette)[:, 0].min())      # no darker than the palette's darkest
+    # in the darks, a quarter or more of the lift Keep Values left is gone (a third, 0.10 against 0.15) ...
+    lift, lift_even = np.median(darks[dark] - floor[dark]), np.median(even[dark] - floor[dark])
+    assert lift < 0.75 * lift_even, (lift, lift_even)
+    # ... and the lightest tones keep the palette's light colours: within 0.02 of where they went without it
+    assert np.max(np.abs(darks[light] - even[light])) < 0.02
+    assert np.corrcoef(own, darks)[0, 1] > np.corrcoef(own, even)[0, 1]
+    np.testing.assert_array_equal(map_to_palette(picture, palette, keep_values=0.4, keep_darks=0.0),
+                                  map_to_palette(picture, palette, keep_values=0.4))
+    with pytest.raises(ValueError, match=r"keep_darks must lie in \[0, 1\], got 2"):
+        map_to_palette(picture, palette, keep_darks=2)
 
 
 def test_a_palette_needs_colours_and_weights_not_all_zero():

@@ -146,7 +146,7 @@ WRONG_TYPES = [
     ('params = "x"', "params must be a table ([params] with sigma, rho, alpha, b_rel, beta, contrast, ink, "
                      "lambda_rel), got 'x'"),
     ('[params]\nrho = "wide"', "[params] rho must lie in [0, 0.05], got 'wide'"),
-    ('noise = 5', "noise must be a table ([noise] with mapping, seed, fraction, spread, fidelity, keep_values, hue_snap, palette), got 5"),
+    ('noise = 5', "noise must be a table ([noise] with mapping, seed, fraction, spread, fidelity, keep_values, keep_darks, hue_snap, palette), got 5"),
     ('[noise]\nfraction = "half"', "[noise] fraction must lie in [0, 1], got 'half'"),
     ('[noise]\nmapping = 1', "[noise] mapping must be one of ['random', 'tone'], got 1"),
     ('[noise]\nspread = {a = 1}', "[noise] spread must lie in [0, 1], got {'a': 1}"),

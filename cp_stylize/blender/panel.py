@@ -270,6 +270,7 @@ class VIEW3D_PT_cp_stylize_palette(_Closed, bpy.types.Panel):
         if settings.noise_mapping == "tone":
             _switched(layout, settings, "fidelity", ["hue_snap"])
             layout.prop(settings, "keep_values")
+            layout.prop(settings, "keep_darks")
         layout.prop(settings, "noise_fraction")
         if settings.noise_mapping == "tone":
             layout.prop(settings, "noise_spread")

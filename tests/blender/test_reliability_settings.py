@@ -94,7 +94,7 @@ BAD_PRESETS = [
     ('mode = "ced"\n[noise]\nfraction = 0.5\npalette = [[1, 2]]\n',
      f"[noise] palette entry 1 must be {ENTRY}, got [1, 2]"),
     ('mode = "ced"\nnoise = 5\n',
-     "noise must be a table ([noise] with mapping, seed, fraction, spread, fidelity, keep_values, hue_snap, palette), got 5"),
+     "noise must be a table ([noise] with mapping, seed, fraction, spread, fidelity, keep_values, keep_darks, hue_snap, palette), got 5"),
     ('mode = "ced"\nstrokes = [1]\n', "strokes must be a table ([strokes] with strength, length, width, layers, chain, broad, jitter, swirl, stars, relief, sheen), got [1]"),
     ('mode = "ced"\ndirection = "axis"\naxis = 5\n', "axis must be three finite numbers, not all zero, got 5"),
     ('name = 5\nmode = "eed"\n', "name must be text, got 5"),
