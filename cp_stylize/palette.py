@@ -102,7 +102,8 @@ SHARP = 16.0
 CHROMA_KEEP = 2.0
 #: A picture's grey (asphalt, an overcast sky, concrete) keeps this share of the palette colour's
 #: chroma, and a colour of chroma VIVID (OKLab) or more all of it: what is grey in the picture reads as
-#: a muted colour in the painting, what is coloured as a strong one.
+#: a muted colour in the painting, what is coloured as a strong one (unless ``hue_snap`` turns its hue to
+#: the palette's: it then takes the chroma the palette gives that hue, as much as a colour's hue is turned).
 MUTED = 0.7
 VIVID = 0.08
 #: How sharply ``hue_snap`` chooses the palette's hues nearest a colour's (the fit's exponent per unit of
@@ -254,7 +255,9 @@ def _mapped(lab, ranks, lab_palette, weights, centres, fidelity, kept, hue_snap)
         own_hue, mix_chroma = _snapped(own_hue, cos, tone, mix_chroma, lab_palette, palette_chroma, palette_hued,
                                        hue_snap)
     ab = (1.0 - turn) * mix[:, 1:] + turn * own_hue * mix_chroma
-    ab *= (MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0))[:, None]    # a grey stays a muted colour
+    # a grey stays a muted colour; but a hue snapped to the palette's takes the chroma the palette gives it
+    muted = MUTED + (1.0 - MUTED) * np.clip(chroma / VIVID, 0.0, 1.0)
+    ab *= (muted + (1.0 - muted) * hue_snap * turn[:, 0])[:, None]
     own = max(0.0, 2.0 * fidelity - 1.0)        # the picture's lightness and chroma: from 0.5 on
     # snapped, the picture's hue keeps the palette's chroma where the picture's own is weaker: a muted photograph
     # brings back its lightness without dulling the palette's yellows to khaki

@@ -221,9 +221,12 @@ def test_fidelity_above_a_half_brings_back_a_muted_pictures_lightness_not_its_du
         lab = to_oklab(map_to_palette(khaki, palette, fidelity=fidelity, hue_snap=1.0))
         chroma[fidelity] = np.hypot(lab[:, 1], lab[:, 2])
         assert np.all(hue_difference(lab, to_oklab(_rgb(["#f0b81c"]))) < 25)         # the palette's yellow hue
-    assert np.all(chroma[0.6] > chroma[0.5] - 2e-3) and np.all(chroma[0.8] > chroma[0.5] - 2e-3)
+    # the lighter two keep their chroma; the dark one loses only what the gamut takes as its own lightness
+    # comes back (about 0.13 of chroma at a yellow's lightness 0.55), far from khaki's 0.03
+    assert np.all(chroma[0.6][1:] > chroma[0.5][1:] - 2e-3) and np.all(chroma[0.8][1:] > chroma[0.5][1:] - 2e-3)
+    assert chroma[0.6][0] > 0.12 and chroma[0.8][0] > 0.12
     assert np.all(chroma[0.5] > 0.08)                                                # a yellow, not khaki
     lab = to_oklab(map_to_palette(khaki, palette, fidelity=1.0, hue_snap=1.0))
-    assert np.allclose(lab[:, 0], to_oklab(khaki)[:, 0], atol=1e-3)                # its own lightness at 1
+    assert np.allclose(lab[:, 0], to_oklab(khaki)[:, 0], atol=5e-3)     # its own lightness at 1 (in the gamut)
     plain = to_oklab(map_to_palette(khaki, palette, fidelity=1.0))                     # without snapping, its own
     assert np.allclose(plain, to_oklab(khaki), atol=1e-3)                            # colours at 1
