@@ -17,7 +17,7 @@ from .arrays import smooth_step
 from .baking import texel_lengths
 from .contours import contour_field, ink_colour, line_strength, line_width, thin_lines
 from .oklab import from_oklab, to_oklab, within_gamut
-from .canvas import FINE_PAINT, Texels, paint
+from .canvas import FINE_PAINT, THICKNESS, Texels, paint
 from .rigger import HELD, line_dabs
 from .lines import inked
 from .stroke_field import StrokeField, agreement
@@ -63,6 +63,12 @@ LINE_HUE = 0.4
 #: stroke of a deeper blue, one in the wheat an umber-ochre, as a painter lays them, not a black scratch.
 RIGGER_DARKER = 0.32
 RIGGER_HUE = 0.75
+#: The paint's relief is nowhere steeper than this (the tangent of its angle at Relief 1: 35 degrees), however
+#: a narrower dab ends over thicker paint (:func:`slope_limited`) ...
+MAX_SLOPE = 0.7
+#: ... found in at most this many passes of a texel each (a step of a full height ramps over about 20 texels at
+#: the 2048 atlas).
+SLOPE_PASSES = 32
 #: Sheen (:func:`_sheen`) lights the paint's relief as if a dab's full height were this share of the widest
 #: strokes' width: the flanks of a stroke shade softly and its colour reads through them.
 SHEEN_HEIGHT = 0.1
@@ -151,6 +157,10 @@ class Painting:
                     out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
                                                max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs,
                                                LONG_RUN * (1.0 - ink) * scale)
+            if height is not None:      # no cliff steeper than paint stands: no black hairline under a light
+                thickness = THICKNESS * dabs.layer_width()
+                height = slope_limited(height, flat, self.atlas.size,
+                                       MAX_SLOPE * float(np.median(where.lengths)) / thickness)
             if self.sheen > 0:
                 widest = dabs.layer_width()
                 reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
@@ -209,6 +219,29 @@ class Painting:
         drawn = amount > 0                              # lines cover few of the texels
         out[drawn] = inked(out[drawn], amount[drawn], self._line_paint(out[drawn]))
         return out
+
+
+def slope_limited(height, flat, size, step):
+    """The ``height`` (M,) at the atlas texels ``flat`` (M,) of a ``size`` square atlas, lowered where it stands
+    more than ``step`` above a neighbouring texel (``step`` times the distance, diagonals included): the
+    greatest height within that slope of every texel's, its lower Lipschitz envelope (grey erosions by a
+    3 x 3 cone, :data:`SLOPE_PASSES` at most, until nothing changes).  A dab's edge over thick paint, a
+    texel-wide cliff, becomes a ramp a few texels wide: the Bump node would turn the cliff into a black
+    hairline on its side away from the light, which reads as a crack.  Texels off the atlas's charts bind
+    nothing."""
+    from scipy import ndimage
+
+    image = np.full(size * size, np.inf, dtype=np.float32)
+    image[flat] = height
+    image = image.reshape(size, size)
+    cone = np.float32(step) * np.array([[np.sqrt(2.0), 1.0, np.sqrt(2.0)], [1.0, 0.0, 1.0],
+                                        [np.sqrt(2.0), 1.0, np.sqrt(2.0)]], dtype=np.float32)
+    for _ in range(SLOPE_PASSES):
+        lowered = ndimage.grey_erosion(image, structure=-cone, mode="constant", cval=np.inf)   # min(h + cone)
+        if np.array_equal(lowered, image):
+            break
+        image = lowered
+    return image.ravel()[flat].astype(np.float32)
 
 
 def _pressure(points, wavelength):

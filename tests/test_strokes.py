@@ -830,3 +830,30 @@ def test_a_line_up_to_the_finest_dabs_width_is_laid_as_a_line_not_left_to_the_da
     # a branch 0.084 wide, under the finest dabs' 0.1, is a line as a hairline is (the test above): a bare
     # branch against the sky is drawn, not smudged by dabs too broad to hold it
     assert (on & away).sum() > 50 and (plain - lined)[on & away].mean() > 0.15
+
+
+def test_the_relief_has_no_cliff_steeper_than_its_slope_and_is_lowered_only_at_cliffs():
+    """A dab's edge over thick paint, a texel-wide cliff, becomes a ramp no steeper than the step allowed (the
+    Bump node would shade a cliff as a black hairline); gentle paint keeps its height, and texels off the
+    atlas's charts bind nothing."""
+    from cp_stylize.painting import slope_limited
+
+    size, step = 96, 0.1
+    v, u = np.mgrid[0:size, 0:size]
+    gentle = 0.02 * u + 0.3 * np.sin(v / 9.0)                     # steps of at most 0.035 a texel
+    height = gentle + np.where((u > 20) & (u < 70) & (v > 20) & (v < 70), 1.0, 0.0)    # a block of thick paint
+    covered = ~((u < 6) & (v < 6))                                # a corner off the charts
+    flat = np.flatnonzero(covered.ravel())
+    limited = np.full(size * size, np.nan)
+    limited[flat] = slope_limited(height.ravel()[flat].astype(np.float32), flat, size, step)
+    limited = limited.reshape(size, size)
+    assert np.all(limited[covered] <= height[covered] + 1e-6)               # never raised
+    for axis in (0, 1):
+        steps = np.abs(np.diff(limited, axis=axis))
+        assert np.nanmax(steps) <= step + 1e-5                    # no cliff along either axis
+    assert np.abs(np.diff(height, axis=1)).max() > 0.9            # (there was one)
+    far = (np.abs(u - 45) > 36) | (np.abs(v - 45) > 36)           # away from the block the paint is as it was
+    np.testing.assert_allclose(limited[far & covered], height[far & covered], atol=1e-5)
+    # the block's middle keeps its thickness: the ramp is about ten texels long
+    assert limited[45, 45] == pytest.approx(height[45, 45], abs=1e-5)
+    assert np.isfinite(limited[covered]).all()
