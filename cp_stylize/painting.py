@@ -68,7 +68,7 @@ RIGGER_HUE = 0.75
 MAX_SLOPE = 0.7
 #: ... found in at most this many passes of a texel each (a step of a full height ramps over about 20 texels at
 #: the 2048 atlas).
-SLOPE_PASSES = 32
+SLOPE_PASSES = 64
 #: Sheen (:func:`_sheen`) lights the paint's relief as if a dab's full height were this share of the widest
 #: strokes' width: the flanks of a stroke shade softly and its colour reads through them.
 SHEEN_HEIGHT = 0.1
@@ -224,24 +224,33 @@ class Painting:
 def slope_limited(height, flat, size, step):
     """The ``height`` (M,) at the atlas texels ``flat`` (M,) of a ``size`` square atlas, lowered where it stands
     more than ``step`` above a neighbouring texel (``step`` times the distance, diagonals included): the
-    greatest height within that slope of every texel's, its lower Lipschitz envelope (grey erosions by a
-    3 x 3 cone, :data:`SLOPE_PASSES` at most, until nothing changes).  A dab's edge over thick paint, a
-    texel-wide cliff, becomes a ramp a few texels wide: the Bump node would turn the cliff into a black
-    hairline on its side away from the light, which reads as a crack.  Texels off the atlas's charts bind
-    nothing."""
-    from scipy import ndimage
-
-    image = np.full(size * size, np.inf, dtype=np.float32)
-    image[flat] = height
-    image = image.reshape(size, size)
-    cone = np.float32(step) * np.array([[np.sqrt(2.0), 1.0, np.sqrt(2.0)], [1.0, 0.0, 1.0],
-                                        [np.sqrt(2.0), 1.0, np.sqrt(2.0)]], dtype=np.float32)
+    greatest height within that slope of every texel's, its lower Lipschitz envelope.  Each pass lowers a
+    texel to its eight neighbours' heights plus their distance's ``step``, the first over every texel and
+    the next only about those the last one lowered, :data:`SLOPE_PASSES` at most, until nothing changes.  A
+    dab's edge over thick paint, a texel-wide cliff, becomes a ramp a few texels wide: the Bump node would
+    turn the cliff into a dark hairline on its side away from the light, which reads as a crack.  Texels off
+    the atlas's charts bind nothing, and one chart's paint binds no other's across them."""
+    wide = size + 2                                  # a border of texels off the charts all round
+    rows, cols = np.divmod(np.asarray(flat, dtype=np.int64), size)
+    at = (rows + 1) * wide + cols + 1
+    image = np.full(wide * wide, np.inf, dtype=np.float32)
+    image[at] = height
+    covered = np.zeros(wide * wide, dtype=bool)
+    covered[at] = True
+    offsets = np.array([-wide - 1, -wide, -wide + 1, -1, 1, wide - 1, wide, wide + 1])
+    cost = (np.float32(step) * np.array([np.sqrt(2.0), 1.0, np.sqrt(2.0), 1.0, 1.0, np.sqrt(2.0), 1.0,
+                                         np.sqrt(2.0)])).astype(np.float32)
+    near = at
     for _ in range(SLOPE_PASSES):
-        lowered = ndimage.grey_erosion(image, structure=-cone, mode="constant", cval=np.inf)   # min(h + cone)
-        if np.array_equal(lowered, image):
+        bound = (image[near[:, None] + offsets] + cost).min(axis=1)
+        lower = bound < image[near]
+        if not lower.any():
             break
-        image = lowered
-    return image.ravel()[flat].astype(np.float32)
+        lowered = near[lower]
+        image[lowered] = bound[lower]
+        near = np.unique((lowered[:, None] + offsets).ravel())       # whose neighbours were lowered
+        near = near[covered[near]]
+    return image[at]
 
 
 def _pressure(points, wavelength):

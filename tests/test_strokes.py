@@ -835,7 +835,7 @@ def test_a_line_up_to_the_finest_dabs_width_is_laid_as_a_line_not_left_to_the_da
 def test_the_relief_has_no_cliff_steeper_than_its_slope_and_is_lowered_only_at_cliffs():
     """A dab's edge over thick paint, a texel-wide cliff, becomes a ramp no steeper than the step allowed (the
     Bump node would shade a cliff as a black hairline); gentle paint keeps its height, and texels off the
-    atlas's charts bind nothing."""
+    atlas's charts bind nothing, and one chart's paint binds no other's across them."""
     from cp_stylize.painting import slope_limited
 
     size, step = 96, 0.1
@@ -857,3 +857,10 @@ def test_the_relief_has_no_cliff_steeper_than_its_slope_and_is_lowered_only_at_c
     # the block's middle keeps its thickness: the ramp is about ten texels long
     assert limited[45, 45] == pytest.approx(height[45, 45], abs=1e-5)
     assert np.isfinite(limited[covered]).all()
+    # a chart's paint is not pulled down by another chart's across the gutter between them
+    gutter = np.ones((8, 8), bool)
+    gutter[:, 3:5] = False
+    two = np.where(np.arange(8) < 4, 0.0, 1.0)[None, :].repeat(8, axis=0)
+    flat = np.flatnonzero(gutter.ravel())
+    np.testing.assert_array_equal(slope_limited(two.ravel()[flat].astype(np.float32), flat, 8, step),
+                                  two.ravel()[flat])
