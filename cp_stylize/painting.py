@@ -143,6 +143,7 @@ class Painting:
                 pickup = (under, *self.jitter) if self.jitter is not None else None
             out, height = paint(dabs, where, out, reference, strength=self.strength, source=source, pickup=pickup,
                                 progress=progress)
+            texel, widest = float(np.median(where.lengths)), dabs.layer_width()     # lengths on the surface
             if source is not None:
                 # the picture's lightness at the texture's resolution over the band's: its detail
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
@@ -150,20 +151,17 @@ class Painting:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no broad dab can carry, laid with a rigger
                     scale = self.fine if self.fine is not None else dabs.layer_width(finest=True)
-                    finest = scale / np.median(where.lengths)
-                    wavelength = PRESSURE * finest * float(np.median(where.lengths))
+                    finest = scale / texel
+                    wavelength = PRESSURE * finest * texel
                     ink = min(1.0, THIN * self.detail)
                     lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
                     out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
                                                max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs,
                                                LONG_RUN * (1.0 - ink) * scale)
-            if height is not None:      # no cliff steeper than paint stands: no black hairline under a light
-                thickness = THICKNESS * dabs.layer_width()
-                height = slope_limited(height, flat, self.atlas.size,
-                                       MAX_SLOPE * float(np.median(where.lengths)) / thickness)
+            # no cliff steeper than paint stands: no black hairline under a light
+            height = slope_limited(height, flat, self.atlas.size, MAX_SLOPE * texel / (THICKNESS * widest))
             if self.sheen > 0:
-                widest = dabs.layer_width()
-                reach = max(1, int(round(SHEEN_REACH * widest / np.median(where.lengths))))
+                reach = max(1, int(round(SHEEN_REACH * widest / texel)))
                 out = _sheen(out, height, where, SHEEN_HEIGHT * widest, self.sheen, reach)
         if self.columns is not None:
             strength = line_strength(columns[:, 0])
@@ -235,8 +233,6 @@ def slope_limited(height, flat, size, step):
     at = (rows + 1) * wide + cols + 1
     image = np.full(wide * wide, np.inf, dtype=np.float32)
     image[at] = height
-    covered = np.zeros(wide * wide, dtype=bool)
-    covered[at] = True
     offsets = np.array([-wide - 1, -wide, -wide + 1, -1, 1, wide - 1, wide, wide + 1])
     cost = (np.float32(step) * np.array([np.sqrt(2.0), 1.0, np.sqrt(2.0), 1.0, 1.0, np.sqrt(2.0), 1.0,
                                          np.sqrt(2.0)])).astype(np.float32)
@@ -249,7 +245,7 @@ def slope_limited(height, flat, size, step):
         lowered = near[lower]
         image[lowered] = bound[lower]
         near = np.unique((lowered[:, None] + offsets).ravel())       # whose neighbours were lowered
-        near = near[covered[near]]
+        near = near[np.isfinite(image[near])]                         # on the charts
     return image[at]
 
 
