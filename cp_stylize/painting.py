@@ -152,7 +152,7 @@ class Painting:
                     # the thin lines no broad dab can carry, laid with a rigger
                     scale = self.fine if self.fine is not None else dabs.layer_width(finest=True)
                     finest = scale / texel
-                    wavelength = PRESSURE * finest * texel
+                    wavelength = PRESSURE * scale
                     ink = min(1.0, THIN * self.detail)
                     lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
                     out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
