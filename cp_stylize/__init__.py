@@ -11,7 +11,9 @@ NumPy and SciPy.  Public API:
   :func:`write_png`, and :func:`parametric_mesh` for a mesh with UVs made from a surface's parameters;
 - the whole run: :func:`stylize` of a mesh's :class:`ColourInput` (:class:`Texture` images) with
   :class:`StylizeSettings`, from :func:`load_preset` (:func:`builtin_presets` in a checkout), giving a
-  :class:`StylizeResult`; a :class:`RunCache` keeps what re-runs on the same mesh can reuse.
+  :class:`StylizeResult`; a :class:`RunCache` keeps what re-runs on the same mesh can reuse;
+- colour at a mesh's vertices filtered into colour at its vertices (a scan, vertex paint):
+  :func:`stylize_vertices`, giving a :class:`VertexResult`.
 
 The names load on first use, so that importing the package (as the Blender
 add-on does when it is enabled) does not import SciPy.
@@ -24,7 +26,7 @@ _PUBLIC = {"Band": "band", "band_width": "band", "MODES": "parameters", "diffuse
            "Ellipsoid": "surfaces", "sample_texture": "sampling", "ColourInput": "sampling", "Texture": "sampling",
            "uv_atlas": "atlas", "bake_to_atlas": "baking", "write_png": "texture", "stylize": "pipeline",
            "StylizeResult": "pipeline", "RunCache": "cache", "StylizeSettings": "settings", "load_preset": "presets",
-           "builtin_presets": "presets"}
+           "builtin_presets": "presets", "stylize_vertices": "vertex_colours", "VertexResult": "vertex_colours"}
 
 __all__ = sorted(_PUBLIC)
 __version__ = "0.1.0"
