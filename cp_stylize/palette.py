@@ -76,6 +76,9 @@ HUE_REACH = 0.5
 #: (1 + HUE_START) GREY.
 HUE_START = 0.25
 HUE_WEIGHT = 3.0
+#: Keep Darks keeps a colour's own lightness by this power of how dark its tone ranks (1 - rank): the
+#: higher, the more it keeps to the deepest shadows alone.
+DARKS_POWER = 2.0
 #: A colour's hue counts from this tone rank on, and fully from HUE_FULL: the picture's darks keep to the
 #: palette's colours of their tone, whatever their hue (a dark brown does not turn the palette's yellow).
 HUE_FROM = 0.25
@@ -201,7 +204,7 @@ def map_to_palette(colours, palette, weights=None, *, fidelity=0.0, keep_values=
     centres = np.cumsum(weights) - weights / 2                    # each colour's share of the ranks
     lab = to_oklab(colours[:, :3])
     ranks = tone_ranks(lab[:, 0])
-    kept = keep_values + keep_darks * (1.0 - keep_values) * (1.0 - ranks) ** 2     # the share of the own lightness
+    kept = keep_values + keep_darks * (1.0 - keep_values) * (1.0 - ranks) ** DARKS_POWER   # the share of the own lightness
     if np.any(kept > 0):        # the rank at which the palette's lightness is the colour's own
         ranks = (1.0 - kept) * ranks + kept * np.interp(lab[:, 0], lab_palette[:, 0], centres)
     out = np.empty((len(colours), 3))
