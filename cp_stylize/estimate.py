@@ -18,7 +18,7 @@ from .atlas import XATLAS_FACES
 from .grid import estimate_band_size
 from .pipeline import KEEP_BAKE_TEXELS, normalisation, stencil_for
 
-__all__ = ["RunEstimate", "estimate", "estimate_run"]
+__all__ = ["RunEstimate", "estimate", "estimate_run", "estimate_vertices"]
 
 
 #: Rough costs on a 2-core machine, from ``python -m cp_stylize bench`` and the Suzanne cases of
@@ -170,3 +170,31 @@ def estimate(vertices, faces, settings, channels=3, keep=False, unwrap=False, im
         speed = machine_speed()
     seconds, nbytes = estimate_run(n, settings, channels, len(faces), keep, unwrap, image_pixels, speed)
     return RunEstimate(settings.spacing / scale, n, nbytes, seconds)
+
+
+#: The mesh filter's costs (:mod:`cp_stylize.mesh_diffusion`), per vertex: the operators once, and each
+#: semi-implicit step (EED and CED: with the structure tensor's smoothings); its bytes at the peak.
+SECONDS_MESH_PER_RUN = 0.1
+SECONDS_MESH_SETUP_PER_VERTEX = 4e-6
+SECONDS_MESH_STEP_PER_VERTEX = {"gaussian": 1.5e-6, "perona_malik": 3e-6, "eed": 6e-6, "ced": 6e-6}
+BYTES_MESH_PER_VERTEX = 1200
+
+
+def estimate_vertices(vertices, faces, settings, method, speed=None):
+    """A :class:`RunEstimate` of :func:`cp_stylize.vertex_colours.stylize_vertices` with ``method``
+    (``"mesh"`` or ``"band"``); the band's is :func:`estimate`'s without an image to bake."""
+    if speed is None:
+        from .calibration import machine_speed
+
+        speed = machine_speed()
+    if method == "band":
+        return estimate(vertices, faces, settings.replace(image_size=64), speed=speed)
+    from .mesh_diffusion import STEP_EDGES
+
+    centre, scale = normalisation(vertices, faces)
+    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)] * scale
+    edge = float(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).mean())
+    steps = max(1, int(np.ceil(settings.T / (STEP_EDGES * edge**2) - 1e-9))) if settings.T > 0 else 0
+    n = len(vertices)
+    seconds = SECONDS_MESH_PER_RUN + n * (SECONDS_MESH_SETUP_PER_VERTEX + steps * SECONDS_MESH_STEP_PER_VERTEX[settings.mode])
+    return RunEstimate(settings.spacing / scale, 0, BYTES_PER_RUN + n * BYTES_MESH_PER_VERTEX, seconds * speed)

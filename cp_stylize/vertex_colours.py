@@ -41,7 +41,7 @@ from .pipeline import normalisation, stencil_for, stroke_field
 from .parameters import DIRECTED_MODES
 from .sampling import ColourInput, sample_colours
 
-__all__ = ["VertexResult", "choose_method", "corner_to_vertex", "stylize_vertices"]
+__all__ = ["VertexResult", "choose_method", "corner_to_vertex", "mean_edge", "stylize_vertices"]
 
 #: The mesh filter serves a mesh whose mean edge is at most this many grid spacings (``settings.spacing``,
 #: relative to a diameter of 2): its vertices then sample the surface at least as finely as the band does.
@@ -67,6 +67,12 @@ def _surface(vertices, faces):
     corners = normal[faces]
     edge = float(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).mean())
     return normal, faces, edge
+
+
+def mean_edge(vertices, faces):
+    """The mean edge of the mesh's faces that have an area, the mesh scaled to a diameter of 2 (what
+    :func:`choose_method` compares with the grid spacing)."""
+    return _surface(vertices, faces)[2]
 
 
 def _refusal(settings):

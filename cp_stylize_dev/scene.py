@@ -37,18 +37,33 @@ def photo_texture(name="forest"):
     return linear_to_srgb(rgb).astype(np.float32)
 
 
-def new_material(name, image):
-    """A material whose Principled BSDF takes its Base Color from an Image Texture of ``image``."""
+def _colour_from(name, kind):
+    """A new material whose Principled BSDF takes its Base Color from a new node of type ``kind``; returns
+    the material, the node and the BSDF."""
     material = bpy.data.materials.new(name)
     if material.node_tree is None:  # Blender 4.x creates the node tree on request
         material.use_nodes = True
     tree = material.node_tree
     bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
-    tex = tree.nodes.new("ShaderNodeTexImage")
+    node = tree.nodes.new(kind)
+    node.location = (bsdf.location.x - 350, bsdf.location.y)
+    tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    return material, node, bsdf
+
+
+def new_material(name, image):
+    """A material whose Principled BSDF takes its Base Color from an Image Texture of ``image``."""
+    material, tex, bsdf = _colour_from(name, "ShaderNodeTexImage")
     tex.image = image
-    tex.location = (bsdf.location.x - 350, bsdf.location.y)
-    tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
     bsdf.inputs["Roughness"].default_value = 0.8
+    return material
+
+
+def attribute_material(name, layer="Col"):
+    """A material whose Principled BSDF takes its Base Color from the colour attribute ``layer`` (a Color
+    Attribute node; "" for the render colour attribute)."""
+    material, node, _ = _colour_from(name, "ShaderNodeVertexColor")
+    node.layer_name = layer
     return material
 
 

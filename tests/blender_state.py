@@ -2,9 +2,10 @@
 
 :func:`snapshot` records the datablock counts, every image's pixels (a hash)
 and dirty flag, every material's nodes, links and custom properties, every
-object's material slots and mode, every mesh's UV maps and colour attributes,
-the render and bake settings a procedural bake touches, and the bytes of the
-files in a folder.  Two snapshots compare with ``==``; :func:`differences`
+object's material slots and mode, every mesh's UV maps, colour attributes
+(their values too, and which are active) and custom properties, the render and
+bake settings a procedural bake touches, and the bytes of the files in a
+folder.  Two snapshots compare with ``==``; :func:`differences`
 names what changed.
 """
 
@@ -52,6 +53,13 @@ def material_state(material):
     return state
 
 
+def _values_hash(attribute):
+    """SHA-256 of a colour attribute's values."""
+    values = np.empty(4 * len(attribute.data), dtype=np.float32)
+    attribute.data.foreach_get("color", values)
+    return hashlib.sha256(values.tobytes()).hexdigest()
+
+
 def mesh_state(mesh):
     uv = mesh.uv_layers
     colours = mesh.color_attributes
@@ -59,7 +67,9 @@ def mesh_state(mesh):
         "uv_maps": [l.name for l in uv],
         "uv_active": uv.active.name if uv.active else None,
         "uv_render": next((l.name for l in uv if l.active_render), None),
-        "colour_attributes": [a.name for a in colours],
+        "colour_attributes": [(a.name, a.domain, a.data_type, _values_hash(a)) for a in colours],
+        "colour_active": (colours.active_color_name, colours.default_color_name),
+        "props": sorted(mesh.keys()),
         "materials": [m.name if m else None for m in mesh.materials],
         "counts": (len(mesh.vertices), len(mesh.loops), len(mesh.polygons)),
     }

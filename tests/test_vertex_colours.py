@@ -118,3 +118,16 @@ def test_corner_colours_meet_at_the_vertices_weighted_by_their_faces_areas():
     corners[1] = 1.0
     at = corner_to_vertex(faces, corners, vertices)[:, 0]
     np.testing.assert_allclose(at, [0.75, 0.0, 0.75, 1.0])
+
+
+def test_the_estimate_counts_the_mesh_filters_vertices_and_steps_or_the_bands_points(sphere):
+    from cp_stylize.estimate import estimate_vertices
+
+    vertices, faces = sphere
+    short, long = _gaussian(1e-3), _gaussian(1e-2)
+    on_mesh = estimate_vertices(vertices, faces, short, "mesh", speed=1.0)
+    assert on_mesh.band_points == 0 and on_mesh.spacing == pytest.approx(H)
+    # ten times the time: more of the mesh filter's steps (1 and 4 at 2 mean edges squared each)
+    assert estimate_vertices(vertices, faces, long, "mesh", speed=1.0).seconds > on_mesh.seconds
+    on_band = estimate_vertices(vertices, faces, short, "band", speed=1.0)
+    assert on_band.band_points > len(vertices) and on_band.bytes > on_mesh.bytes

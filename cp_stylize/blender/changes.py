@@ -73,6 +73,28 @@ class Changes:
             self.record(lambda: mesh.uv_layers.remove(mesh.uv_layers[added]) if added in mesh.uv_layers else None)
         return layer
 
+    def new_colour_attribute(self, mesh, name, data_type, domain):
+        """A new colour attribute ``name`` on ``mesh``, recorded for removal (by name); the mesh's active and
+        render colour attributes stay as they were."""
+        attributes = mesh.color_attributes
+        active, render = attributes.active_color_name, attributes.default_color_name
+        attribute = attributes.new(name, data_type, domain)
+        added = attribute.name
+        if attributes.active_color_name != active:
+            attributes.active_color_name = active
+        if attributes.default_color_name != render:
+            attributes.default_color_name = render
+
+        def undo():
+            if added in attributes:
+                attributes.remove(attributes[added])
+            if attributes.active_color_name != active:
+                attributes.active_color_name = active
+            if attributes.default_color_name != render:
+                attributes.default_color_name = render
+        self.record(undo)
+        return attributes[added]
+
     def new_file(self, path):
         """Record a file this run wrote, for removal."""
         self.record(lambda: os.path.exists(path) and os.remove(path))

@@ -19,8 +19,10 @@ out):
   colour adjustments, other colour spaces), baked with Cycles.
 
 The result goes into an Image Texture node named :data:`NODE` linked to that
-same socket (:func:`wire`); the node remembers what fed the socket before, so
-a second run reads the original colours again, not its own result.
+same socket (:func:`wire`), or, for a result in a colour attribute, into a
+Color Attribute node named :data:`ATTRIBUTE_NODE` (:func:`wire_attribute`);
+the node remembers what fed the socket before, so a second run reads the
+original colours again, not its own result.
 """
 
 from __future__ import annotations
@@ -35,11 +37,13 @@ from .errors import StylizeError
 #: Name of the Image Texture node that holds the stylized image, and of its UV Map node.
 NODE = "cp_stylize"
 UV_NODE = "cp_stylize UV"
+#: Name of the Color Attribute node that shows a result written into a colour attribute.
+ATTRIBUTE_NODE = "cp_stylize attribute"
 #: The Image Texture node that holds the relief (the strokes' height), and the Bump node it feeds.
 RELIEF_NODE = "cp_stylize relief"
 BUMP_NODE = "cp_stylize bump"
-#: Custom property of :data:`NODE`: ``"<node name>/<output identifier>"`` of what fed the colour
-#: input before the stylized image did ("" if nothing was linked).
+#: Custom property of :data:`NODE` and :data:`ATTRIBUTE_NODE`: ``"<node name>/<output identifier>"`` of what
+#: fed the colour input before the result did ("" if nothing was linked).
 SOURCE = "cp_stylize_source"
 #: Custom property of a material copy: the material it was copied from (keeps it alive).
 ORIGINAL = "cp_stylize_original"
@@ -170,14 +174,58 @@ def _ours(output):
     return output is not None and output.node.name == NODE and output.node.type == "TEX_IMAGE"
 
 
+def _ours_attribute(output):
+    """Whether ``output`` is the Color of the Color Attribute node :data:`ATTRIBUTE_NODE` a run wired in."""
+    return output is not None and output.node.name == ATTRIBUTE_NODE and output.node.type == "VERTEX_COLOR"
+
+
 def original_origin(socket):
-    """The output socket whose colour ``socket`` shows, before any stylized image was wired in (None: unlinked)."""
+    """The output socket whose colour ``socket`` shows, before any result was wired in (None: unlinked)."""
     origin = _linked(socket)
-    if _ours(origin):
+    if _ours(origin) or _ours_attribute(origin):
         found, remembered = _remembered(origin.node)
         if found:
             return _unmuted(remembered)
     return _unmuted(origin)
+
+
+def _result_node(material, name, kind, above, changes):
+    """The result node ``name`` (of type ``kind``: :data:`NODE` or :data:`ATTRIBUTE_NODE`) feeding
+    ``material``'s colour input, unmuted, and whether it was made now; ``above``: how far above the shader
+    a new one goes.  A node of an earlier run is reused, also where a run of the other kind (an image after
+    a colour attribute, or the reverse) took the colour input from it; a node that newly feeds the input
+    remembers what fed it before (:data:`SOURCE`).  Every change is recorded in ``changes``."""
+    if not uses_nodes(material):
+        changes.set(material, "use_nodes", True)
+    tree = material.node_tree
+    socket = colour_input(material)
+    current = _linked(socket)
+    node = tree.nodes.get(name)
+    if node is not None and node.bl_idname != kind:
+        node = None
+    if node is not None and current is not None and current.node == node:
+        changes.set(node, "mute", False)
+        return node, False
+    made = node is None
+    if made:
+        shader = socket.node
+        node = changes.new_node(tree, kind)
+        node.name = node.label = name
+        node.location = (shader.location.x - 400, shader.location.y + above)
+    else:
+        changes.set(node, "mute", False)
+    changes.set_item(node, SOURCE, _source_reference(current))
+    changes.link(tree, node.outputs["Color"], socket)
+    return node, made
+
+
+def _source_reference(current):
+    """What a new result node remembers as having fed the colour input, now fed by ``current``: the
+    reference a result node of the other kind remembered (an image run after an attribute run, or the
+    reverse), else ``current`` itself ("" if nothing)."""
+    if (_ours(current) or _ours_attribute(current)) and SOURCE in current.node:
+        return current.node[SOURCE]
+    return f"{current.node.name}/{current.identifier}" if current is not None else ""
 
 
 def _linear_to_srgb(rgb):
@@ -255,7 +303,8 @@ def source_material(material):
         origin = _linked(colour_input(material))
     except StylizeError:
         return material
-    return original if _ours(origin) and not _remembered(origin.node)[0] else material
+    forgotten = (_ours(origin) or _ours_attribute(origin)) and not _remembered(origin.node)[0]
+    return original if forgotten else material
 
 
 def colour_source(material, uv_names, owner):
@@ -295,23 +344,9 @@ def wire(material, image, uv_name, changes):
     Every change is recorded in ``changes`` so that it can be undone.
     Returns the image the node showed before (None for a new node).
     """
-    if not uses_nodes(material):
-        changes.set(material, "use_nodes", True)
+    tex, made = _result_node(material, NODE, "ShaderNodeTexImage", 200, changes)
     tree = material.node_tree
-    socket = colour_input(material)
-    current = _linked(socket)
-    shader = socket.node
-    previous = None
-    if _ours(current):
-        tex = current.node
-        previous = tex.image
-        changes.set(tex, "mute", False)
-    else:
-        tex = changes.new_node(tree, "ShaderNodeTexImage")
-        tex.name = tex.label = NODE
-        tex.location = (shader.location.x - 400, shader.location.y + 200)
-        tex[SOURCE] = f"{current.node.name}/{current.identifier}" if current is not None else ""
-        changes.link(tree, tex.outputs["Color"], socket)
+    previous = None if made else tex.image
     changes.set(tex, "image", image)
     changes.set(tex, "interpolation", "Cubic")       # smooth where the render magnifies the texture
     changes.set(tex, "extension", "EXTEND")          # the atlas lies in [0, 1]: no wrap to the far side
@@ -329,6 +364,35 @@ def wire(material, image, uv_name, changes):
             changes.link(tree, uv.outputs["UV"], tex.inputs["Vector"])
     elif uv_linked:
         changes.unlink(tree, tex.inputs["Vector"].links[0])
+    return previous
+
+
+def result_attribute(material):
+    """The colour attribute an earlier run's :data:`ATTRIBUTE_NODE` shows as ``material``'s colour ("" for the
+    render colour attribute), or None where the colour does not come from that node (or it is muted)."""
+    if not uses_nodes(material):
+        return None
+    try:
+        current = _linked(colour_input(material))
+    except StylizeError:
+        return None
+    if not _ours_attribute(current) or current.node.mute:
+        return None
+    return current.node.layer_name
+
+
+def wire_attribute(material, name, changes):
+    """Show the colour attribute ``name`` as ``material``'s surface colour, as :func:`wire` shows an image.
+
+    The attribute goes into the Color Attribute node :data:`ATTRIBUTE_NODE`,
+    linked to the shader's colour input; a node from an earlier run is reused
+    (and unmuted).  Nothing else in the material changes; what fed the colour
+    before is remembered by the node.  Returns the attribute the node showed
+    before (None for a new node).
+    """
+    node, made = _result_node(material, ATTRIBUTE_NODE, "ShaderNodeVertexColor", -100, changes)
+    previous = None if made else node.layer_name
+    changes.set(node, "layer_name", name)
     return previous
 
 

@@ -12,14 +12,16 @@ import traceback
 import bpy
 
 from .errors import Cancelled
+from ..parameters import FILTERS
 from .properties import QUALITY_SPACING
 
 #: The interactive run in progress (one at a time), or None.
 _running = None
 
 
-def estimate(obj, settings, depsgraph=None):
-    """``(h, points, bytes, seconds)`` of a run on ``obj`` with the core's StylizeSettings.
+def estimate(obj, settings, depsgraph=None, attribute=False):
+    """``(h, points, bytes, seconds)`` of a run on ``obj`` with the core's StylizeSettings (``attribute``: into
+    a colour attribute, ``points`` 0 where the mesh filter serves it).
 
     ``h`` is the grid spacing in world units; raises StylizeError (a ValueError) for unusable objects.
     """
@@ -28,6 +30,13 @@ def estimate(obj, settings, depsgraph=None):
 
     stylize.check_object(obj)
     mesh = meshdata.read(obj, depsgraph, corners=False)
+    if attribute:
+        from ..estimate import estimate_vertices
+        from ..vertex_colours import choose_method
+
+        method, _ = choose_method(mesh.vertices, mesh.triangles, settings)
+        guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=machine_speed())
+        return guess.spacing, guess.band_points, guess.bytes, guess.seconds
     import numpy as np
 
     index = np.zeros(len(obj.data.polygons), dtype=np.int32)
@@ -37,6 +46,39 @@ def estimate(obj, settings, depsgraph=None):
                          image_pixels=stylize.input_pixels(obj, obj.data.uv_layers.keys(), slots, settings),
                          speed=machine_speed())
     return guess.spacing, guess.band_points, guess.bytes, guess.seconds
+
+
+#: The last :func:`attribute_method` answer: ``(key, lines)``.
+_method_shown = (None, ())
+
+
+def attribute_method(obj, panel):
+    """Two short lines for the panel: where a Colour Attribute run on ``obj`` with the panel's settings would
+    filter (the mesh's vertices or the band) and why; remembered for the same mesh, mode and grid."""
+    global _method_shown
+    if obj is None or obj.type != "MESH" or not len(obj.data.polygons):
+        return ("Select a mesh object", "")
+    data = obj.data
+    key = (data.as_pointer(), len(data.vertices), len(data.polygons), panel.mode, panel.relative_spacing())
+    if _method_shown[0] == key:
+        return _method_shown[1]
+    from ..mesh_diffusion import MESH_MODES
+    from ..vertex_colours import MESH_EDGE, mean_edge
+    from . import meshdata
+
+    try:
+        mesh = meshdata.read(obj, corners=False)
+        edge = mean_edge(mesh.vertices, mesh.triangles)
+    except (ValueError, RuntimeError):
+        return ("Filters on the mesh's vertices", "or on the band")
+    if panel.mode not in MESH_MODES:
+        label = ("Filters on the band", f"({FILTERS[panel.mode].label} runs there only)")
+    elif edge <= MESH_EDGE * panel.relative_spacing():
+        label = ("Filters on the mesh's vertices", "(they lie closer than the grid)")
+    else:
+        label = ("Filters on the band", "(the vertices lie farther apart)")
+    _method_shown = (key, label)
+    return label
 
 
 def hides_textures(context):
@@ -103,7 +145,15 @@ class OBJECT_OT_cp_stylize_estimate(bpy.types.Operator):
 
     def execute(self, context):
         def work():
-            h, n, nbytes, seconds = estimate(context.active_object, context.scene.cp_stylize.to_settings())
+            panel = context.scene.cp_stylize
+            if panel.result_kind == "ATTRIBUTE":
+                from . import stylize
+
+                job = stylize.prepare_attribute(context.active_object, panel.to_settings(), panel.output())
+                guess = job.estimate
+                self.report({"INFO"}, f"{job.reason}; {guess.bytes / 2**20:.0f} MiB, roughly {guess.seconds:.0f} s")
+                return {"FINISHED"}
+            h, n, nbytes, seconds = estimate(context.active_object, panel.to_settings())
             self.report({"INFO"}, f"grid spacing {h:.4g}, about {n:,} band points, {nbytes / 2**20:.0f} MiB, "
                                   f"roughly {seconds:.0f} s")
             return {"FINISHED"}
@@ -149,8 +199,10 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
         return stylize.prepare(context.active_object, settings, panel.output())
 
     def _finish(self, job, context=None):
-        from . import results, writing
+        from . import results, stylize, writing
 
+        if isinstance(job, stylize.AttributeJob):
+            return self._finish_attribute(job, context)
         applied = writing.apply(job)
         global _last_image
         _last_image = applied.image
@@ -162,6 +214,20 @@ class OBJECT_OT_cp_stylize(bpy.types.Operator):
                     f"{f', its relief in {applied.relief!r}' if applied.relief else ''} in {result.seconds:.1f} s "
                     f"({result.band_size:,} band points, grid spacing {result.spacing:.4g}{reused})"
                     f"{results.kept_note(applied.kept)}{_how_to_see(context)}")
+        return {"FINISHED"}
+
+    def _finish_attribute(self, job, context):
+        from . import results, writing
+
+        applied = writing.apply_attribute(job)
+        result = job.result
+        where = "on the mesh's own vertices" if result.method == "mesh" else f"on the band ({result.points:,} points)"
+        kept = (f"; the earlier result {applied.kept!r} was painted after its run, so it is kept as it is"
+                if applied.kept else "")
+        self.report({"WARNING"} if applied.kept or applied.kept_images else {"INFO"},
+                    f"stylized {job.object_name!r} into the colour attribute {applied.attribute!r} {where} in "
+                    f"{result.seconds:.1f} s ({job.reason}){kept}{results.kept_note(applied.kept_images)}"
+                    f"{_how_to_see(context)}")
         return {"FINISHED"}
 
     def execute(self, context):

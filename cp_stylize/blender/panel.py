@@ -34,13 +34,16 @@ def _estimate_text(obj, settings):
         core = settings.to_settings()
     except ValueError as err:
         return [str(err)]
-    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons), _images(obj))
+    attribute = settings.result_kind == "ATTRIBUTE"
+    key = (obj.name, tuple(round(c, 6) for c in obj.dimensions), core, len(obj.data.polygons), _images(obj),
+           attribute)
     if key not in _estimate_cache:
         try:
-            h, n, nbytes, seconds = operators.estimate(obj, core)
+            h, n, nbytes, seconds = operators.estimate(obj, core, attribute=attribute)
             _estimate_cache.clear()
+            where = f"About {n:,} band points" if n else "On the mesh's own vertices"
             _estimate_cache[key] = [f"Grid spacing {length_text(h)}",
-                                    f"About {n:,} band points, {nbytes / 2**20:,.0f} MiB",
+                                    f"{where}, {nbytes / 2**20:,.0f} MiB",
                                     f"Roughly {max(seconds, 1):,.0f} s"]
         except ValueError as err:
             return [str(err)]
@@ -290,13 +293,22 @@ class VIEW3D_PT_cp_stylize_output(_Sidebar, bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.cp_stylize
         layout = _split(self.layout)
-        layout.prop(settings, "image_size")
-        layout.prop(settings, "image_name")
+        layout.prop(settings, "result_kind")
+        if settings.result_kind == "IMAGE":
+            layout.prop(settings, "image_size")
+            layout.prop(settings, "image_name")
+        else:
+            where, why = operators.attribute_method(context.active_object, settings)
+            col = layout.column(align=True)
+            col.label(text=where, icon="INFO")
+            col.label(text=why, icon="BLANK1")
         layout.prop(settings, "target")
-        layout.prop(settings, "storage")
+        if settings.result_kind == "IMAGE":
+            layout.prop(settings, "storage")
         layout.prop(settings, "memory_limit")
         layout.prop(settings, "time_limit")
-        layout.prop(settings, "keep")
+        if settings.result_kind == "IMAGE":        # what a colour attribute's run builds is not kept
+            layout.prop(settings, "keep")
         layout.separator()
         layout.operator("object.cp_stylize", icon="BRUSH_DATA")
         if operators.hides_textures(context):        # a result would not show: offer the view that shows it

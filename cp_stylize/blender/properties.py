@@ -157,6 +157,17 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     )
     image_name: bpy.props.StringProperty(name="Image Name", description="Name of the new image "
                                                                          "(empty: <object>_stylized)")
+    result_kind: bpy.props.EnumProperty(
+        name="Result",
+        items=[("IMAGE", "Image", "An image on a UV atlas (the mesh's own UVs, or a new UV map), wired into the "
+                                  "material"),
+               ("ATTRIBUTE", "Colour Attribute", "A new colour attribute of the mesh, from the colour attribute it "
+                                                 "shows (a scan, vertex paint), wired into the material: no image and "
+                                                 "no UV map; filtered on the mesh's own vertices where they lie "
+                                                 "closer than the grid, else on the band. Filters only: a look that "
+                                                 "paints needs an image")],
+        default="IMAGE",
+    )
     target: bpy.props.EnumProperty(
         name="Material",
         items=[("NEW_MATERIAL", "New Material Copy", "Wire the result into a copy of each material, for this "
@@ -213,7 +224,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
         return Output(image_name=self.image_name, target=self.target, storage=self.storage,
                       memory_limit=self.memory_limit * 2**30, time_limit=self.time_limit * 60, keep=self.keep,
-                      speed=machine_speed())
+                      speed=machine_speed(), kind=self.result_kind)
 
     def from_settings(self, settings, key=""):
         """Set the filter properties from StylizeSettings (a loaded preset, ``key`` its key); output settings stay.
@@ -269,7 +280,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
 
 
 #: The properties of the Output panel: a preset leaves them as they are.
-_OUTPUT = {"image_size", "image_name", "target", "storage", "memory_limit", "time_limit", "keep"}
+_OUTPUT = {"result_kind", "image_size", "image_name", "target", "storage", "memory_limit", "time_limit", "keep"}
 
 
 def _run_property(parameter):

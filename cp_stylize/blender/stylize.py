@@ -71,6 +71,11 @@ class Output:
     time_limit: float = 15 * 60       # seconds
     keep: bool = True                 # keep what the run builds before its filter for the next run
     speed: float = 1.0                # the estimate's time factor for this computer (cp_stylize.calibration)
+    kind: str = "IMAGE"               # or "ATTRIBUTE": a new colour attribute (see :func:`prepare_attribute`)
+
+
+#: What a run writes: an image on a UV atlas, or a colour attribute of the mesh.
+RESULT_KINDS = ("IMAGE", "ATTRIBUTE")
 
 
 @dataclasses.dataclass
@@ -93,6 +98,30 @@ class Job:
     estimate: object                  # estimate.RunEstimate
     result: object = None
     reused: list = dataclasses.field(default_factory=list)   # the parts the run took from the last one
+
+
+@dataclasses.dataclass
+class AttributeJob:
+    """A run whose result goes into a colour attribute (:func:`prepare_attribute`), as plain data."""
+
+    object_name: str
+    settings: object                  # StylizeSettings
+    output: Output
+    vertices: np.ndarray              # (V, 3) world units without the rotation (:class:`.meshdata.MeshData`)
+    triangles: np.ndarray             # (F, 3)
+    colours: np.ndarray               # (V, 4) sRGB-encoded, the source attribute's at the vertices
+    source: str                       # the colour attribute read
+    domain: str                       # its domain ("POINT" or "CORNER") and type, which the result takes
+    data_type: str
+    slots: list
+    fingerprint: str
+    slots_state: list
+    method: str                       # "mesh" or "band" (cp_stylize.vertex_colours.choose_method), and why
+    reason: str
+    estimate: object
+    shown: tuple = ()                 # the earlier results of this source the materials show
+    result: object = None             # a cp_stylize.vertex_colours.VertexResult
+    reused: list = dataclasses.field(default_factory=list)
 
 
 # -- what runs keep for the next ---------------------------------------------------------------
@@ -173,7 +202,8 @@ def duration(seconds):
 
 def check_limits(estimate, output):
     """Raise StylizeError if a run's estimated memory or time is above the limits or this computer's memory."""
-    need = f"this run needs about {estimate.bytes / 2**30:.1f} GiB (about {estimate.band_points:,} band points)"
+    where = f"about {estimate.band_points:,} band points" if estimate.band_points else "on the mesh's own vertices"
+    need = f"this run needs about {estimate.bytes / 2**30:.1f} GiB ({where})"
     memory = physical_memory()
     if memory is not None and estimate.bytes > memory:
         raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: lower the quality")
@@ -389,13 +419,16 @@ def _direction_attribute(obj, settings):
 
 
 def prepare(obj, settings, output=Output(), depsgraph=None):
-    """Check and read everything a run on ``obj`` needs; returns a :class:`Job`. Changes nothing in the file.
+    """Check and read everything a run on ``obj`` needs; returns a :class:`Job` (an :class:`AttributeJob` where
+    ``output.kind`` is ``"ATTRIBUTE"``: :func:`prepare_attribute`). Changes nothing in the file.
 
     Raises StylizeError for problems with the object, its materials, the
     save target or the limits.
     """
     from ..estimate import estimate
 
+    if output.kind == "ATTRIBUTE":
+        return prepare_attribute(obj, settings, output, depsgraph)
     check_object(obj)
     if output.storage == "SAVE":
         save_folder()
@@ -436,6 +469,116 @@ def prepare(obj, settings, output=Output(), depsgraph=None):
                estimate=guess)
 
 
+def _attribute_shown(obj, index, mesh):
+    """The colour attribute material slot ``index`` of ``obj`` shows, traced back to the attribute an earlier
+    run read if it shows that run's result; StylizeError if it shows no colour attribute."""
+    from . import writing
+
+    material = obj.material_slots[index].material if len(obj.material_slots) else None
+    if material is None:        # faces without a material read the render colour attribute
+        return writing.attribute_origin(obj.data, mesh.render_colour, obj.name)
+    shown = materials.result_attribute(material)
+    if shown is not None:
+        return writing.attribute_origin(obj.data, shown or mesh.render_colour, obj.name)
+    source = materials.colour_source(materials.source_material(material), mesh.uv_maps.keys(), obj.name)
+    if not isinstance(source, materials.AttributeSource):
+        what = {materials.Flat: "a flat colour", materials.ImageSource: "an image"}.get(type(source), "colours "
+                                                                                       "made by its nodes")
+        raise StylizeError(f"material {material.name!r} of {obj.name!r} shows {what}, not a colour attribute: the "
+                           "Colour Attribute result filters a colour attribute; choose Result: Image")
+    return writing.attribute_origin(obj.data, source.name or mesh.render_colour, obj.name)
+
+
+def prepare_attribute(obj, settings, output, depsgraph=None):
+    """Check and read everything a run into a colour attribute needs; returns an :class:`AttributeJob`.
+
+    The colour attribute the object shows (through its materials' Color
+    Attribute nodes, or the render colour attribute where a face has no
+    material) is filtered at the mesh's vertices
+    (:func:`cp_stylize.vertex_colours.stylize_vertices`: the mesh's own finite
+    elements where its vertices are finer than the grid, else the band), and
+    the result goes into a new colour attribute of the same domain and type.
+    Changes nothing in the file.  Raises StylizeError for a look that paints
+    (it needs an image), a mesh shared with other objects or linked from a
+    library, modifiers that change the vertices, materials that show no
+    colour attribute or different ones, and the limits.
+    """
+    from ..estimate import estimate_vertices
+    from ..vertex_colours import choose_method, corner_to_vertex
+
+    check_object(obj)
+    if settings.stylised:
+        look = f"the preset {settings.name!r}" if settings.name else "these settings"
+        raise StylizeError(f"{look} paints a look (palette, strokes, lines, oil paint, toon, watercolour, "
+                           "hatching or painted light) whose marks are finer than a vertex apart: choose Result: "
+                           "Image, or a filter (Denoise, Gaussian Blur, Perona-Malik) for a colour attribute")
+    data = obj.data
+    if data.library is not None:
+        raise StylizeError(f"the mesh of {obj.name!r} is linked from the library {data.library.name!r} and cannot "
+                           "get a colour attribute here: make it local first (Object > Relations > Make Local)")
+    sharing = [o.name for o in bpy.data.objects if o.data == data and o != obj]
+    if sharing:
+        raise StylizeError(f"the mesh {data.name!r} of {obj.name!r} is shared with {_listed(sharing)}, which would "
+                           f"get the new colour attribute too: give {obj.name!r} its own mesh first (Object > "
+                           "Relations > Make Single User > Object & Data), or choose Result: Image")
+    mesh = meshdata.read(obj, depsgraph)
+    if not mesh.same_topology or len(mesh.vertices) != len(data.vertices):
+        raise StylizeError(f"the modifiers of {obj.name!r} change its vertices or faces, so a colour at its "
+                           "vertices cannot be written back: apply them first, or choose Result: Image")
+    slot_count = len(obj.material_slots)
+    slots = [int(i) for i in np.unique(np.minimum(mesh.material_index, max(slot_count - 1, 0)))]
+    sources = sorted({_attribute_shown(obj, index, mesh) for index in slots}, key=str)
+    if None in sources:
+        raise StylizeError(f"the mesh of {obj.name!r} has no colour attribute to filter: paint one (Vertex Paint "
+                           "Mode) or import it with the scan, or choose Result: Image")
+    if len(sources) > 1:
+        raise StylizeError(f"the materials of {obj.name!r} show different colour attributes ({_listed(sources)}): "
+                           "the Colour Attribute result filters one; choose Result: Image")
+    source = sources[0]
+    attribute = data.color_attributes.get(source)
+    if attribute is None or attribute.domain not in ("POINT", "CORNER"):
+        raise StylizeError(f"the mesh of {obj.name!r} has no colour attribute {source!r} on its points or face "
+                           "corners: choose one its materials show, or Result: Image")
+    from .writing import _shown_by_others
+
+    shown = []
+    for index in slots:
+        material = obj.material_slots[index].material if slot_count else None
+        if material is None:
+            continue
+        _check_writable(material, output)
+        if output.target == "APPLY" and _shown_by_others(material, obj):
+            raise StylizeError(f"material {material.name!r} is shown by other objects too, whose meshes have no "
+                               f"result attribute: wired into it, the result would render black there; choose "
+                               "New Material Copy")
+        if materials.result_attribute(material):
+            shown.append(materials.result_attribute(material))
+    rgba = np.empty(4 * len(attribute.data), dtype=np.float32)
+    attribute.data.foreach_get("color_srgb", rgba)
+    rgba = rgba.reshape(-1, 4)
+    if attribute.domain == "CORNER":
+        rgba = corner_to_vertex(mesh.triangles, rgba[mesh.loops], mesh.vertices)
+    used = np.zeros(len(rgba), dtype=bool)
+    used[mesh.triangles.ravel()] = True
+    bad = ~np.isfinite(rgba).all(axis=1)
+    if (bad & used).any():
+        count = int((bad & used).sum())
+        raise StylizeError(f"the colour attribute {source!r} of {obj.name!r} holds colours that are not finite "
+                           f"numbers at {count:,} {'vertex' if count == 1 else 'vertices'}: repaint them (Vertex Paint Mode) or import the scan "
+                           "again")
+    rgba[bad] = 0.0                         # loose vertices: nothing filters them
+    if not output.keep:
+        release()
+    method, reason = choose_method(mesh.vertices, mesh.triangles, settings)
+    guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=output.speed)
+    check_limits(guess, output)
+    return AttributeJob(object_name=obj.name, settings=settings, output=output, vertices=mesh.vertices,
+                        triangles=mesh.triangles, colours=rgba, source=source, domain=attribute.domain,
+                        data_type=attribute.data_type, slots=slots, fingerprint=meshdata.fingerprint(obj),
+                        slots_state=meshdata.slots_state(obj), method=method, reason=reason, estimate=guess,
+                        shown=tuple(shown))
+
+
 # -- running -----------------------------------------------------------------------------
 
 
@@ -445,6 +588,12 @@ def run_core(job, progress=None, log=None):
     from ..pipeline import stylize
 
     global _cache_bytes
+    if isinstance(job, AttributeJob):
+        from ..vertex_colours import stylize_vertices
+
+        job.result = stylize_vertices(job.vertices, job.triangles, job.colours[:, :3], job.settings,
+                                      method=job.method, progress=progress, log=log)
+        return job.result
     cache = run_cache() if job.output.keep else None
     try:
         job.result = stylize(job.mesh.vertices, job.mesh.triangles, job.colours, job.settings, uvs=job.uvs,

@@ -205,6 +205,134 @@ def relief_distance(obj, job):
     return settings.relief * THICKNESS * settings.stroke_width * world_per_unit / scale
 
 
+#: Custom property of a mesh: ``{result attribute: {"source": the attribute it was filtered from, "digest":
+#: its values as written}}``, so that a re-run reads the source again and updates an unedited result in place.
+ATTRIBUTES = "cp_stylize_attributes"
+
+
+@dataclasses.dataclass(frozen=True)
+class AppliedAttribute:
+    attribute: str                    # the colour attribute the result went into
+    materials: tuple                  # names of the materials that show it
+    kept: str | None = None           # an earlier result the user has painted since, kept as it is
+    kept_images: tuple = ()           # (name, edited) of earlier relief images kept (see results)
+
+
+def attribute_origin(mesh, name, owner):
+    """The colour attribute a run's result ``name`` on ``mesh`` was filtered from, where it is one; else
+    ``name``.  StylizeError where it is a result whose source is gone (renamed or removed): a run would
+    filter the result again."""
+    record = mesh.get(ATTRIBUTES, {}).get(name) if name else None
+    if record is None:
+        return name
+    source = record.get("source")
+    if source not in mesh.color_attributes:
+        raise StylizeError(f"the colour attribute {name!r} of {owner!r} is an earlier result, and the attribute it "
+                           f"was filtered from, {source!r}, is gone (renamed or removed): point the material's Color "
+                           "Attribute node at the attribute to filter, or choose Result: Image")
+    return source
+
+
+#: Blender keeps attribute names to this many bytes (63 in the oldest Blender the add-on supports).
+NAME_BYTES = 63
+
+
+def result_attribute_name(source, number=0):
+    """``<source>_stylized`` (``.001`` ... for ``number``), the source's part cut so that the whole fits in
+    :data:`NAME_BYTES` bytes of UTF-8."""
+    suffix = "_stylized" + (f".{number:03d}" if number else "")
+    room = NAME_BYTES - len(suffix.encode("utf-8"))
+    return source.encode("utf-8")[:room].decode("utf-8", "ignore") + suffix
+
+
+def _colour_values(attribute):
+    """An attribute's values as Blender stores them (float colours; byte colours as floats)."""
+    values = np.empty(4 * len(attribute.data), dtype=np.float32)
+    attribute.data.foreach_get("color", values)
+    return values
+
+
+def _values_digest(values):
+    import hashlib
+
+    return hashlib.blake2b(values.tobytes(), digest_size=16).hexdigest()
+
+
+def _result_attribute(mesh, job, changes):
+    """The colour attribute the job's result goes into, and the name of an earlier result kept because it was
+    painted since (or None).  An earlier result of the same source, domain and type that is exactly as its
+    run wrote it is updated in place: the one the materials show, else ``<source>_stylized``; otherwise the
+    result goes into a new attribute ``<source>_stylized`` (``.001`` ... where the name is taken)."""
+    attributes = mesh.color_attributes
+    base = result_attribute_name(job.source)
+    records = mesh.get(ATTRIBUTES, {})
+    kept = None
+    for name in dict.fromkeys([*job.shown, base]):
+        existing = attributes.get(name)
+        record = records.get(name)
+        if existing is None or record is None or record.get("source") != job.source \
+                or (existing.domain, existing.data_type) != (job.domain, job.data_type):
+            continue
+        old = _colour_values(existing)
+        if _values_digest(old) == record.get("digest"):
+            changes.record(lambda: attributes[name].data.foreach_set("color", old))
+            return existing, None
+        kept = kept or name                   # painted since its run: kept, and the result goes beside it
+    name, number = base, 0
+    while name in mesh.attributes:
+        number += 1
+        name = result_attribute_name(job.source, number)
+    return changes.new_colour_attribute(mesh, name, job.data_type, job.domain), kept
+
+
+def apply_attribute(job):
+    """Write an :class:`~.stylize.AttributeJob`'s result into a colour attribute as one transaction; returns
+    :class:`AppliedAttribute`.
+
+    The result goes into ``<source>_stylized`` (:func:`_result_attribute`), of
+    the source's domain and type, with the source's alpha; the materials (or
+    their copies, as for an image) show it through a Color Attribute node
+    (:func:`.materials.wire_attribute`), and any relief an earlier image run
+    wired is taken out.  The source attribute and the mesh's active and render
+    colour attributes stay as they were.  Raises StylizeError (with nothing
+    changed) as :func:`apply` does.
+    """
+    obj = _current_object(job)
+    mesh = obj.data
+    sharing = [o.name for o in bpy.data.objects if o.data == mesh and o != obj]
+    if sharing:
+        raise StylizeError(f"the mesh of {obj.name!r} came to be shared with {sharing[0]!r} while it was being "
+                           "stylized; nothing was changed: give it its own mesh (Object > Relations > Make Single "
+                           "User > Object & Data) and press Stylize again")
+    colours = np.empty((len(job.colours), 4), dtype=np.float32)
+    colours[:, :3] = np.clip(job.result.colours[:, :3], 0.0, 1.0)
+    colours[:, 3] = job.colours[:, 3]
+    replaced = results.Replaced()
+    with Changes() as changes:
+        attribute, kept = _result_attribute(mesh, job, changes)
+        if job.domain == "CORNER":
+            loops = np.empty(len(mesh.loops), dtype=np.int32)
+            mesh.loops.foreach_get("vertex_index", loops)
+            colours = colours[loops]
+        attribute.data.foreach_set("color_srgb", colours.ravel())
+        name = attribute.name
+        records = {key: dict(value) for key, value in mesh.get(ATTRIBUTES, {}).items()}
+        records[name] = {"source": job.source, "digest": _values_digest(_colour_values(attribute))}
+        changes.set_item(mesh, ATTRIBUTES, records)
+        wired, copies = [], {}
+        for index in job.slots:
+            material = _material_for(obj, index, job.output, changes, copies)
+            if material in wired:
+                continue
+            materials.wire_attribute(material, name, changes)
+            replaced.add(materials.unwire_relief(material, changes))
+            wired.append(material)
+        unused, kept_images = replaced.retire([], changes)
+    results.remove(unused, [])
+    return AppliedAttribute(attribute=name, materials=tuple(m.name for m in wired), kept=kept,
+                            kept_images=tuple(kept_images))
+
+
 def apply(job):
     """Write the result into the file as one transaction; returns :class:`Applied`.
 

@@ -25,6 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))   # tests/: blender_state, blender_scenes
 
 from blender_scenes import halves, image_material, sphere  # noqa: E402
+from cp_stylize_dev.scene import attribute_material  # noqa: E402
 from blender_state import differences, snapshot  # noqa: E402
 
 ADDON = "bl_ext.user_default.cp_stylize"
@@ -150,6 +151,18 @@ def stylize_and_watch(act_at=None, action=None):
     facts["acted"] = acted
     log(f"run ended; progress seen {len(seen)} times")
     yield 0.5
+
+
+def undo_and_redo(before, done):
+    """Undo the run and redo it; the differences from the states ``before`` and ``done`` go into the facts,
+    with the reports."""
+    in_view3d(bpy.ops.ed.undo)
+    yield 0.5
+    facts["after_undo"] = differences(before, snapshot())
+    in_view3d(bpy.ops.ed.redo)
+    yield 0.5
+    facts["after_redo"] = differences(done, snapshot())
+    facts["reports"] = reports()
 
 
 # -- scenarios ---------------------------------------------------------------------------------------
@@ -282,17 +295,54 @@ def scenario_undo():
     done = snapshot()
     facts["changed_by_run"] = differences(before, done)
     screenshot("finished")
-    in_view3d(bpy.ops.ed.undo)
-    yield 0.5
-    facts["after_undo"] = differences(before, snapshot())
-    in_view3d(bpy.ops.ed.redo)
-    yield 0.5
-    facts["after_redo"] = differences(done, snapshot())
-    facts["reports"] = reports()
+    yield from undo_and_redo(before, done)
     facts["shading"] = view3d()[1].spaces.active.shading.type
     in_view3d(bpy.ops.view3d.toggle_shading, type="MATERIAL")     # what Show in Material Preview does
     yield 3.0
     screenshot("finished_material_preview")
+
+
+def scenario_attribute():
+    """A scan's colour attribute filtered into a new colour attribute (Result: Colour Attribute), its Output
+    sub-panel drawn, then undo and redo."""
+    import numpy as np
+
+    obj = sphere("Scan", segments=96, rings=48, location=(0.0, 0.0, 0.0))
+    bpy.data.objects.remove(bpy.data.objects["Ball"])
+    mesh = obj.data
+    co = np.empty(3 * len(mesh.vertices))
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    rgb = np.clip(np.where(co[:, :1] > 0, 0.8, 0.2) + 0.1 * np.random.default_rng(0).standard_normal((len(co), 3)),
+                  0, 1)
+    attribute = mesh.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    attribute.data.foreach_set("color_srgb", np.concatenate([rgb, np.ones((len(co), 1))], 1).astype("f4").ravel())
+    mesh.color_attributes.active_color = attribute
+    mesh.materials.append(attribute_material("Scanned", "Col"))
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    settings = bpy.context.scene.cp_stylize
+    settings.result_kind = "ATTRIBUTE"
+    settings.mode, settings.time = "eed", 2e-3
+    settings.quality, settings.spacing = "CUSTOM", 0.08
+    in_view3d(bpy.ops.ed.undo_push, message="scan ready")
+    _, area, _, sidebar = view3d()
+    panels = sys.modules[f"{ADDON}.cp_stylize.blender.panel"]
+    bpy.utils.unregister_class(panels.VIEW3D_PT_cp_stylize_paint)     # out of the way of the Output sub-panel
+    area.tag_redraw()
+    yield 1.5
+    screenshot("attribute_output", sidebar)
+    bpy.utils.register_class(panels.VIEW3D_PT_cp_stylize_paint)
+    facts["method_label"] = sys.modules[f"{ADDON}.cp_stylize.blender.operators"].attribute_method(obj, settings)
+    before = snapshot()
+    yield from stylize_and_watch()
+    done = snapshot()
+    facts["changed_by_run"] = differences(before, done)
+    in_view3d(bpy.ops.view3d.toggle_shading, type="MATERIAL")
+    in_view3d(bpy.ops.view3d.view_selected)
+    yield from undo_and_redo(before, done)
+    yield 20.0                                  # the viewport's shaders compile
+    screenshot("attribute_result")
 
 
 def scenario_rerun():

@@ -131,6 +131,18 @@ def test_a_run_shows_progress_finishes_and_undo_and_redo_restore_both_states(scr
     assert facts["shading"] == "SOLID" and "switch to Material Preview (Z)" in messages(facts)[-1]
 
 
+def test_a_scan_filtered_into_a_colour_attribute_is_one_undo_step(screenshots, extension_zip, tmp_path):
+    facts = drive("attribute", screenshots, extension_zip, tmp_path)
+    assert facts["method_label"] == ["Filters on the mesh's vertices", "(they lie closer than the grid)"]
+    assert os.path.getsize(facts["screenshots"]["attribute_output"]) > 10_000
+    changed = facts["changed_by_run"]
+    assert "materials.Scanned_stylized: added" in changed and not any(c.startswith("images.") for c in changed)
+    assert any(c.startswith("meshes.") and "colour_attributes" in c for c in changed), changed
+    assert facts["after_undo"] == [] and facts["after_redo"] == []
+    assert messages(facts)[-1].startswith("stylized 'Scan' into the colour attribute 'Col_stylized' on the mesh's "
+                                          "own vertices in ")
+
+
 def test_a_second_run_reuses_the_band_and_the_panel_can_free_it(screenshots, extension_zip, tmp_path):
     facts = drive("rerun", screenshots, extension_zip, tmp_path)
     first, second = [m for m in messages(facts) if m.startswith("stylized 'Ball'")][-2:]
