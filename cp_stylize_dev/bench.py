@@ -33,8 +33,10 @@ h = 0.008 unless said):
   sphere whose vertices move along the radius by a tenth of an edge, at
   random), so that a new atlas is made (charts projected along the axes).
 - ``mesh``: colour on a mesh's own vertices (a scan's colour attribute):
-  Denoise (EED) with :func:`cp_stylize.mesh_diffusion.mesh_diffuse` on a
-  torus of 1,003,680 vertices, 2 across, RGB (no band, no atlas).
+  Denoise (EED) into colours at the vertices with
+  :func:`cp_stylize.vertex_colours.stylize_vertices` (which chooses the mesh
+  filter, :func:`cp_stylize.mesh_diffusion.mesh_diffuse`) on a torus of
+  1,003,680 vertices, 2 across, RGB (no band, no atlas).
 
 Each reports its stages, peak memory and the run estimate the add-on uses
 for its limits; a table of the targets follows.
@@ -206,9 +208,11 @@ def _scale_inputs(case, data):
 
 
 def run_mesh_case():
-    """The ``mesh`` scale case: the mesh filter on a million vertices' colours; its figures as a dict."""
-    from cp_stylize.mesh_diffusion import MeshOperators, mesh_diffuse
+    """The ``mesh`` scale case: a million vertices' colours filtered into colours at the vertices
+    (:func:`cp_stylize.vertex_colours.stylize_vertices`, which chooses the mesh filter here); its figures as a
+    dict."""
     from cp_stylize.presets import load_preset
+    from cp_stylize.vertex_colours import stylize_vertices
 
     from .crosscheck import torus_mesh
 
@@ -216,15 +220,9 @@ def run_mesh_case():
     rng = np.random.default_rng(0)
     colours = np.clip(0.5 + 0.3 * np.sin(8.0 * vertices[:, :1] + np.arange(3)) + 0.1 * rng.standard_normal(
         (len(vertices), 3)), 0.0, 1.0).astype(np.float32)
-    settings = load_preset(SCALE["mesh"]["preset"])
-    start = time.perf_counter()
-    operators = MeshOperators.of(vertices, faces)
-    built = time.perf_counter() - start
-    mesh_diffuse(vertices, faces, colours, mode=settings.mode, T=settings.T, operators=operators,
-                 **{name: getattr(settings, name) for name in ("sigma", "rho", "lambda_rel")})
-    total = time.perf_counter() - start
+    result = stylize_vertices(vertices, faces, colours, load_preset(SCALE["mesh"]["preset"]))
     return {"case": "mesh", "vertices": int(len(vertices)), "triangles": int(len(faces)), "points": 0,
-            "seconds": {"operators": built, "diffusion": total - built, "total": total}, "peak_mb": _peak_mb()}
+            "method": result.method, "seconds": {"total": result.seconds}, "peak_mb": _peak_mb()}
 
 
 def run_scale(case, data, base=None):
