@@ -18,10 +18,12 @@ window     the same binary in a window on a virtual screen  the window tests (te
 
 (bpy 5.0.1 runs its whole suite with the README's test command.)  The bpy
 module entries get virtual environments under ``.matrix/`` (Python 3.11; bpy,
-NumPy as that Blender bundles it, and SciPy, xatlas, libigl and pytest pinned
-as in ``requirements.txt``); the chroot entries use ``tools/real_blender.sh``
-(needs root; the bpy entry there adds libigl to the chroot's own NumPy and
-SciPy).  Every entry tests the same linux-x64 zip (``--zip``, else built
+NumPy as that Blender bundles it, and SciPy, xatlas, libigl, pytest and
+pytest-xdist pinned as in ``requirements.txt``); the chroot entries use
+``tools/real_blender.sh`` (needs root; the bpy entry there adds libigl and
+pytest-xdist to the chroot's own NumPy, SciPy and pytest).  The module entries
+run their tests on two processes, a file each at a time, as the README's
+command does.  Every entry tests the same linux-x64 zip (``--zip``, else built
 first with ``tools/build_extension.py``): its tests install it with Blender's
 own installer and stylize an image-textured and a procedural object.
 Screenshots of the window tests go to ``.matrix/screenshots``.  Each entry
@@ -74,9 +76,17 @@ def must(cmd, **kwargs):
     return proc
 
 
+#: The test runner's packages, pinned as in requirements.txt: pytest, and pytest-xdist (with execnet) for the
+#: module entries' two processes (:data:`PARALLEL`).
+RUNNER = ("pytest", "pytest-xdist", "execnet")
+#: How the module entries run their tests: on two processes, a file each at a time, as the README's command
+#: does (the binary's entries run inside one Blender).
+PARALLEL = ["-n", "2", "--dist", "loadfile"]
+
+
 def requirements(bpy, numpy):
-    shared = pinned_versions(["scipy", "xatlas", "libigl", "pytest"])
-    reqs = [f"bpy=={bpy}"] + [f"{name}=={shared[name]}" for name in ("scipy", "xatlas", "libigl", "pytest")]
+    shared = pinned_versions(["scipy", "xatlas", "libigl", *RUNNER])
+    reqs = [f"bpy=={bpy}"] + [f"{name}=={shared[name]}" for name in ("scipy", "xatlas", "libigl", *RUNNER)]
     return reqs + ([f"numpy=={numpy}"] if numpy else [])
 
 
@@ -113,7 +123,7 @@ def run_entry(name, zip_path, clean=False):
     if where == "main":   # the README's environment, whose whole suite runs on its own
         cmd = [sys.executable, "-m", "pytest", *pytest_args]
     elif where == "venv":
-        cmd = [venv(name, bpy, numpy), "-m", "pytest", *pytest_args]
+        cmd = [venv(name, bpy, numpy), "-m", "pytest", *PARALLEL, *pytest_args]
     else:
         must([REAL_BLENDER, "setup"])
         inside = ["env", f"CP_STYLIZE_ZIP={env['CP_STYLIZE_ZIP']}",
@@ -121,8 +131,10 @@ def run_entry(name, zip_path, clean=False):
         if where == "chroot":
             # the chroot's own NumPy and SciPy (Debian's), with bpy and the mesh filters' libigl
             must([REAL_BLENDER, "venv", f"bpy-{bpy}", *[r for r in requirements(bpy, numpy)
-                                                     if r.startswith(("bpy==", "libigl=="))]])
-            cmd = [REAL_BLENDER, "run", *inside, f"/opt/bpy-{bpy}/bin/python", "-m", "pytest", *pytest_args]
+                                                     if r.startswith(("bpy==", "libigl==", "pytest-xdist==",
+                                                                      "execnet=="))]])
+            cmd = [REAL_BLENDER, "run", *inside, f"/opt/bpy-{bpy}/bin/python", "-m", "pytest", *PARALLEL,
+                   *pytest_args]
         elif where == "binary":
             cmd = [REAL_BLENDER, "run", *inside, "blender", "-b", "--factory-startup", "--python-exit-code", "1",
                    "--python", "tests/blender_runner.py", "--", *pytest_args]
