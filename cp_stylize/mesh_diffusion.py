@@ -74,6 +74,15 @@ def _igl():
     return igl
 
 
+def available():
+    """Whether the mesh filters can run here (libigl can be imported)."""
+    try:
+        _igl()
+    except ImportError:
+        return False
+    return True
+
+
 @dataclasses.dataclass
 class MeshOperators:
     """The finite element operators of a triangle mesh: ``grad`` (3F, n), the gradient of a piecewise

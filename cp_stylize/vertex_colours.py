@@ -37,6 +37,7 @@ from .colours import ColourHull
 from .diffusion import diffuse
 from .mesh import TriangleMesh, surface_faces
 from .mesh_diffusion import MESH_MODES, mesh_diffuse
+from .mesh_diffusion import available as mesh_filter_available
 from .pipeline import normalisation, stencil_for, stroke_field
 from .parameters import DIRECTED_MODES
 from .sampling import ColourInput, sample_colours
@@ -85,8 +86,9 @@ def _refusal(settings):
 
 
 def choose_method(vertices, faces, settings, *, edge=None):
-    """``(method, reason)``: ``"mesh"`` where the mesh filter serves the run (its mode runs on the mesh and the
-    mesh's mean edge is at most :data:`MESH_EDGE` grid spacings), else ``"band"``; the reason in a sentence.
+    """``(method, reason)``: ``"mesh"`` where the mesh filter serves the run (its mode runs on the mesh, the
+    mesh's mean edge is at most :data:`MESH_EDGE` grid spacings and libigl can be imported), else ``"band"``;
+    the reason in a sentence.
     ``edge``: the mean edge of the mesh scaled to a diameter of 2, if known."""
     if edge is None:
         edge = _surface(vertices, faces)[2]
@@ -96,6 +98,9 @@ def choose_method(vertices, faces, settings, *, edge=None):
     if edge > MESH_EDGE * h:
         return "band", (f"the vertices lie farther apart (mean edge {edge:.3g}) than the band's grid (h = {h:.3g}, "
                         "both for a diameter of 2): the band filters between them, and is read at the vertices")
+    if not mesh_filter_available():
+        return "band", ("the mesh filter needs libigl, which this Python cannot import (the extension ships it: "
+                        "install the extension again): the band filters, read at the vertices")
     return "mesh", (f"the vertices lie as close as the band's grid or closer (mean edge {edge:.3g}, h = {h:.3g}, "
                     "both for a diameter of 2): filtered on the mesh's own finite elements")
 

@@ -131,3 +131,12 @@ def test_the_estimate_counts_the_mesh_filters_vertices_and_steps_or_the_bands_po
     assert estimate_vertices(vertices, faces, long, "mesh", speed=1.0).seconds > on_mesh.seconds
     on_band = estimate_vertices(vertices, faces, short, "band", speed=1.0)
     assert on_band.band_points > len(vertices) and on_band.bytes > on_mesh.bytes
+
+
+def test_without_libigl_the_band_serves_and_says_why(sphere, monkeypatch):
+    import cp_stylize.vertex_colours as vertex_colours
+
+    vertices, faces = sphere
+    monkeypatch.setattr(vertex_colours, "mesh_filter_available", lambda: False)
+    method, reason = choose_method(vertices, faces, _gaussian())
+    assert method == "band" and "needs libigl" in reason

@@ -62,7 +62,7 @@ def attribute_method(obj, panel):
     key = (data.as_pointer(), len(data.vertices), len(data.polygons), panel.mode, panel.relative_spacing())
     if _method_shown[0] == key:
         return _method_shown[1]
-    from ..mesh_diffusion import MESH_MODES
+    from ..mesh_diffusion import MESH_MODES, available
     from ..vertex_colours import MESH_EDGE, mean_edge
     from . import meshdata
 
@@ -73,10 +73,12 @@ def attribute_method(obj, panel):
         return ("Filters on the mesh's vertices", "or on the band")
     if panel.mode not in MESH_MODES:
         label = ("Filters on the band", f"({FILTERS[panel.mode].label} runs there only)")
-    elif edge <= MESH_EDGE * panel.relative_spacing():
-        label = ("Filters on the mesh's vertices", "(they lie closer than the grid)")
-    else:
+    elif edge > MESH_EDGE * panel.relative_spacing():
         label = ("Filters on the band", "(the vertices lie farther apart)")
+    elif not available():
+        label = ("Filters on the band", "(libigl is missing)")
+    else:
+        label = ("Filters on the mesh's vertices", "(they lie closer than the grid)")
     _method_shown = (key, label)
     return label
 

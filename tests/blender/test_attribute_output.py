@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
+pytest.importorskip("igl", reason="the mesh filter needs libigl (requirements.txt pins it; the extension ships it)")
 
 from blender_scenes import halves, image_material, sphere  # noqa: E402
 from cp_stylize_dev.scene import attribute_material  # noqa: E402
