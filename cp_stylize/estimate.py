@@ -180,21 +180,23 @@ SECONDS_MESH_STEP_PER_VERTEX = {"gaussian": 1.5e-6, "perona_malik": 3e-6, "eed":
 BYTES_MESH_PER_VERTEX = 1200
 
 
-def estimate_vertices(vertices, faces, settings, method, speed=None):
+def estimate_vertices(vertices, faces, settings, method, speed=None, edge=None):
     """A :class:`RunEstimate` of :func:`cp_stylize.vertex_colours.stylize_vertices` with ``method``
-    (``"mesh"`` or ``"band"``); the band's is :func:`estimate`'s without an image to bake."""
+    (``"mesh"`` or ``"band"``); the band's is :func:`estimate`'s without an image to bake.  ``edge``: the
+    mesh's :func:`~cp_stylize.vertex_colours.mean_edge`, if known."""
     if speed is None:
         from .calibration import machine_speed
 
         speed = machine_speed()
     if method == "band":
         return estimate(vertices, faces, settings.replace(image_size=64), speed=speed)
-    from .mesh_diffusion import STEP_EDGES
+    from .mesh_diffusion import STEP_EDGES, step_count
+    from .vertex_colours import mean_edge
 
-    centre, scale = normalisation(vertices, faces)
-    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)] * scale
-    edge = float(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).mean())
-    steps = max(1, int(np.ceil(settings.T / (STEP_EDGES * edge**2) - 1e-9))) if settings.T > 0 else 0
+    _, scale = normalisation(vertices, faces)
+    edge = mean_edge(vertices, faces) if edge is None else edge
+    steps = step_count(settings.T, STEP_EDGES * edge**2)
     n = len(vertices)
-    seconds = SECONDS_MESH_PER_RUN + n * (SECONDS_MESH_SETUP_PER_VERTEX + steps * SECONDS_MESH_STEP_PER_VERTEX[settings.mode])
+    per_vertex = SECONDS_MESH_SETUP_PER_VERTEX + steps * SECONDS_MESH_STEP_PER_VERTEX[settings.mode]
+    seconds = SECONDS_MESH_PER_RUN + n * per_vertex
     return RunEstimate(settings.spacing / scale, 0, BYTES_PER_RUN + n * BYTES_MESH_PER_VERTEX, seconds * speed)

@@ -74,6 +74,11 @@ def _igl():
     return igl
 
 
+def step_count(T, tau):
+    """The semi-implicit steps that split time ``T`` evenly into steps of ``tau`` or shorter (0 for ``T`` 0)."""
+    return max(1, int(np.ceil(T / tau - 1e-9))) if T > 0 else 0
+
+
 def available():
     """Whether the mesh filters can run here (libigl can be imported)."""
     try:
@@ -291,7 +296,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
     if not np.all(np.isfinite(u)):
         raise ValueError("values hold NaN or infinite numbers")
     tau = STEP_EDGES * ops.edge**2 if tau is None else float(tau)
-    steps = max(1, int(np.ceil(T / tau - 1e-9))) if T > 0 else 0
+    steps = step_count(T, tau)
     dt = T / steps if steps else 0.0
     K = ops.stiffness() if mode == "gaussian" else None
     scale = None

@@ -32,10 +32,11 @@ def estimate(obj, settings, depsgraph=None, attribute=False):
     mesh = meshdata.read(obj, depsgraph, corners=False)
     if attribute:
         from ..estimate import estimate_vertices
-        from ..vertex_colours import choose_method
+        from ..vertex_colours import choose_method, mean_edge
 
-        method, _ = choose_method(mesh.vertices, mesh.triangles, settings)
-        guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=machine_speed())
+        edge = mean_edge(mesh.vertices, mesh.triangles)
+        method, _ = choose_method(mesh.vertices, mesh.triangles, settings, edge=edge)
+        guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=machine_speed(), edge=edge)
         return guess.spacing, guess.band_points, guess.bytes, guess.seconds
     import numpy as np
 

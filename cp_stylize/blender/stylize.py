@@ -74,10 +74,6 @@ class Output:
     kind: str = "IMAGE"               # or "ATTRIBUTE": a new colour attribute (see :func:`prepare_attribute`)
 
 
-#: What a run writes: an image on a UV atlas, or a colour attribute of the mesh.
-RESULT_KINDS = ("IMAGE", "ATTRIBUTE")
-
-
 @dataclasses.dataclass
 class Job:
     """Everything a run needs, as plain data: the hand-off between Blender and the core."""
@@ -504,7 +500,7 @@ def prepare_attribute(obj, settings, output, depsgraph=None):
     colour attribute or different ones, and the limits.
     """
     from ..estimate import estimate_vertices
-    from ..vertex_colours import choose_method, corner_to_vertex
+    from ..vertex_colours import choose_method, corner_to_vertex, mean_edge
 
     check_object(obj)
     if settings.stylised:
@@ -551,8 +547,9 @@ def prepare_attribute(obj, settings, output, depsgraph=None):
             raise StylizeError(f"material {material.name!r} is shown by other objects too, whose meshes have no "
                                f"result attribute: wired into it, the result would render black there; choose "
                                "New Material Copy")
-        if materials.result_attribute(material):
-            shown.append(materials.result_attribute(material))
+        earlier = materials.result_attribute(material)
+        if earlier:
+            shown.append(earlier)
     rgba = np.empty(4 * len(attribute.data), dtype=np.float32)
     attribute.data.foreach_get("color_srgb", rgba)
     rgba = rgba.reshape(-1, 4)
@@ -564,13 +561,14 @@ def prepare_attribute(obj, settings, output, depsgraph=None):
     if (bad & used).any():
         count = int((bad & used).sum())
         raise StylizeError(f"the colour attribute {source!r} of {obj.name!r} holds colours that are not finite "
-                           f"numbers at {count:,} {'vertex' if count == 1 else 'vertices'}: repaint them (Vertex Paint Mode) or import the scan "
-                           "again")
+                           f"numbers at {count:,} {'vertex' if count == 1 else 'vertices'}: repaint them (Vertex "
+                           "Paint Mode) or import the scan again")
     rgba[bad] = 0.0                         # loose vertices: nothing filters them
     if not output.keep:
         release()
-    method, reason = choose_method(mesh.vertices, mesh.triangles, settings)
-    guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=output.speed)
+    edge = mean_edge(mesh.vertices, mesh.triangles)
+    method, reason = choose_method(mesh.vertices, mesh.triangles, settings, edge=edge)
+    guess = estimate_vertices(mesh.vertices, mesh.triangles, settings, method, speed=output.speed, edge=edge)
     check_limits(guess, output)
     return AttributeJob(object_name=obj.name, settings=settings, output=output, vertices=mesh.vertices,
                         triangles=mesh.triangles, colours=rgba, source=source, domain=attribute.domain,
