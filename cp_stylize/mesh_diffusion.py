@@ -63,6 +63,8 @@ RTOL = 1e-10
 #: strengths the filter follows, which a residual this small does not move visibly.
 TENSOR_RTOL = 1e-5
 TINY = 1e-30
+#: Solves to a relative residual this loose or looser run in single precision.
+LOOSE = 1e-6
 
 
 def _igl():
@@ -105,6 +107,25 @@ class MeshOperators:
     basis: np.ndarray
     laplacian: sp.csr_matrix
     tangents: np.ndarray
+    #: the stiffness's CSR pattern (indices, indptr): each vertex with itself and its neighbours
+    pattern: tuple = dataclasses.field(init=False, repr=False)
+    #: where each face's local 3 x 3 entries (F * 9, row by row) land in that pattern's data: a face's part is
+    #: summed in by a bincount, without sorting
+    slots: np.ndarray = dataclasses.field(init=False, repr=False)
+    #: each face's ``|T| G_T^T G_T`` (F, 3, 3): its part of the stiffness of the identity tensor
+    local: np.ndarray = dataclasses.field(init=False, repr=False)
+
+    def __post_init__(self):
+        n = len(self.mass)
+        rows = np.repeat(self.corners, 3, axis=1).ravel().astype(np.int64)
+        cols = np.tile(self.corners, (1, 3)).ravel().astype(np.int64)
+        pattern = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        pattern.sort_indices()
+        self.pattern = (pattern.indices, pattern.indptr)
+        # (row, col)'s place in the sorted pattern: the rank of its key row * n + col among the pattern's keys
+        keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(pattern.indptr)) * n + pattern.indices
+        self.slots = np.searchsorted(keys, rows * n + cols)
+        self.local = np.einsum("fai,faj->fij", self.basis, self.basis) * self.area[:, None, None]
 
     @classmethod
     def of(cls, vertices, faces):
@@ -154,20 +175,37 @@ class MeshOperators:
         if tensor is None:
             return self.laplacian
         tensor = np.asarray(tensor, dtype=np.float64)
-        B = self.basis
         if tensor.ndim == 1:
-            local = np.einsum("fai,faj->fij", B, B) * (self.area * tensor)[:, None, None]
+            local = self.local * tensor[:, None, None]
         else:
-            local = np.einsum("fai,fab,fbj->fij", B, tensor, B) * self.area[:, None, None]
+            B = self.basis
+            local = np.einsum("fai,fij->faj", np.einsum("fai,fab->fib", B, tensor), B) * self.area[:, None, None]
+        return self._assembled(local)
+
+    def directed_stiffness(self, along, across, direction):
+        """The stiffness of the face tensors ``along P + (across - along) w w^T`` (``P`` the projector onto
+        each face's plane, ``w`` (F, 3) a unit ``direction`` in it; ``along``, ``across`` (F,)): as
+        :meth:`stiffness` of :func:`_tensor`'s tensors, from each face's ``|T| G^T G`` and ``G^T w``
+        (the hat functions' gradients lie in the face's plane, so ``P`` leaves them as they are)."""
+        bw = np.einsum("fai,fa->fi", self.basis, direction)
+        local = (self.local * along[:, None, None]
+                 + (self.area * (across - along))[:, None, None] * (bw[:, :, None] * bw[:, None, :]))
+        return self._assembled(local)
+
+    def _assembled(self, local):
+        """The CSR stiffness (n, n) that sums the faces' local matrices ``local`` (F, 3, 3)."""
         n = len(self.mass)
-        rows = np.repeat(self.corners, 3, axis=1).ravel()
-        cols = np.tile(self.corners, (1, 3)).ravel()
-        return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n))
+        indices, indptr = self.pattern
+        data = np.bincount(self.slots, weights=local.ravel(), minlength=len(indices))
+        return sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
     def implicit_step(self, values, tau, K, rtol=RTOL):
         """``u`` with ``(M + tau K) u = M values`` (n, C), by conjugate gradients preconditioned with the
         diagonal, from ``values``: all channels at once (:func:`_block_cg`), to a relative residual ``rtol``."""
         A = (sp.diags(self.mass) + tau * K).tocsr()
+        if rtol >= LOOSE:               # half the memory traffic: single precision holds such a residual
+            A = A.astype(np.float32)
+            return _block_cg(A, (self.mass[:, None] * values).astype(np.float32), values.astype(np.float32), rtol)
         return _block_cg(A, self.mass[:, None] * values, values, rtol)
 
     def smoothed(self, values, t, rtol=RTOL):
@@ -218,7 +256,7 @@ def _block_cg(A, B, X, rtol=RTOL):
     sparse product a step for all of them), each stopped at a relative residual of ``rtol``; a
     FloatingPointError if they do not get there in ten times as many steps as ``A`` has rows."""
     inverse = 1.0 / A.diagonal()[:, None]
-    X = np.array(X, dtype=np.float64)
+    X = np.array(X, dtype=B.dtype)
     R = B - A @ X
     Z = inverse * R
     P = Z.copy()
@@ -261,13 +299,6 @@ def _eigen_in_plane(ops, J):
     mean = 0.5 * (a + c)
     angle = 0.5 * np.arctan2(2.0 * b, a - c)             # the larger eigenvalue's direction in (t1, t2)
     return mean + half, mean - half, np.cos(angle)[:, None] * t1 + np.sin(angle)[:, None] * t2
-
-
-def _tensor(ops, kappa_across, kappa_along, w):
-    """``kappa_along P + (kappa_across - kappa_along) w w^T`` (F, 3, 3), ``P = t1 t1^T + t2 t2^T`` each face's
-    projector onto its plane."""
-    P = np.einsum("fki,fkj->fij", ops.tangents, ops.tangents)
-    return kappa_along[:, None, None] * P + (kappa_across - kappa_along)[:, None, None] * (w[:, :, None] * w[:, None, :])
 
 
 def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, progress=None, **params):
@@ -314,7 +345,7 @@ def mesh_diffuse(vertices, faces, values, *, mode, T, tau=None, operators=None, 
             if scale is None:
                 scale = max(float(c.max()), TINY)
             across, along = _diffusivities(mode, c, p, scale)
-            K = ops.stiffness(_tensor(ops, across, along, w))
+            K = ops.directed_stiffness(along, across, w)
         u = ops.implicit_step(u, dt, K)
         if progress is not None:
             progress((step + 1) / steps)

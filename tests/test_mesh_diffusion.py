@@ -122,3 +122,29 @@ def test_the_linear_filter_converges_to_the_heat_flow_on_the_sphere_at_second_or
         errors.append(np.sqrt(ops.mass @ (u - exact) ** 2 / (ops.mass @ exact**2)))
     # each halving of the edges (and so a quarter of the time step) divides the error by about 4
     assert errors[0] / errors[1] > 2.4 and errors[1] / errors[2] > 3.0 and errors[2] < 0.005
+
+
+def test_the_stiffness_sums_each_faces_part_of_its_tensor(sphere):
+    """The stiffness, summed into its pattern face by face, is ``sum_T |T| G_T^T D_T G_T``: for the identity the
+    cotangent Laplacian, for a face diffusivity that many times each face's part, and for a tensor along and
+    across a direction in each face's plane the same as the full 3 x 3 tensor would give."""
+    vertices, faces, values, ops = sphere
+    rng = np.random.default_rng(7)
+    F = len(faces)
+    assert abs(ops.stiffness(np.ones(F)) - ops.laplacian).max() < 1e-12
+    g = rng.uniform(0.1, 1.0, F)
+    B = ops.basis
+    reference = np.zeros((len(vertices), len(vertices)))
+    local = np.einsum("fai,faj->fij", B, B) * (ops.area * g)[:, None, None]
+    for k in range(3):
+        for m in range(3):
+            np.add.at(reference, (faces[:, k], faces[:, m]), local[:, k, m])
+    np.testing.assert_allclose(ops.stiffness(g).toarray(), reference, atol=1e-12)
+    angle = rng.uniform(0, np.pi, F)[:, None]
+    w = np.cos(angle) * ops.tangents[:, 0] + np.sin(angle) * ops.tangents[:, 1]
+    along, across = rng.uniform(0.5, 1.0, F), rng.uniform(0.0, 0.2, F)
+    P = np.einsum("fki,fkj->fij", ops.tangents, ops.tangents)
+    tensor = along[:, None, None] * P + (across - along)[:, None, None] * (w[:, :, None] * w[:, None, :])
+    directed = ops.directed_stiffness(along, across, w)
+    assert abs(directed - ops.stiffness(tensor)).max() < 1e-12
+    np.testing.assert_allclose(directed @ np.ones(len(vertices)), 0.0, atol=1e-12)    # constants in its null space
