@@ -105,11 +105,14 @@ class Painting:
     surface: :meth:`cp_stylize.strokes.Brush.line_width`; None: the finest
     dabs' width).  ``sheen`` in [0, 1]: how much of the light and shade of
     the paint's own relief is painted into its colour (:func:`_sheen`).
+    ``keep_darks`` in [0, 1] (with the picture): how far the paint's lightness, at the scale of a broad
+    dab, is keyed to the picture's as mapped, and to its own darks (:func:`_keyed`).
     """
 
     def __init__(self, mesh, atlas, dabs=None, *, strength=1.0, lines=None, contours=0.0, ink=None, source=None,
-                 recolour=None, jitter=None, detail=0.0, sheen=0.0, fine=None):
+                 recolour=None, jitter=None, detail=0.0, sheen=0.0, fine=None, keep_darks=0.0):
         self.mesh, self.atlas, self.dabs, self.strength = mesh, atlas, dabs, float(strength)
+        self.keep_darks = float(keep_darks)
         self.fine = fine
         self.detail, self.sheen = float(detail), float(sheen)
         self.contours = float(contours)
@@ -158,6 +161,9 @@ class Painting:
                     out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
                                                max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs,
                                                LONG_RUN * (1.0 - ink) * scale)
+                if self.keep_darks > 0:
+                    out = _keyed(out, under[:, 0], to_oklab(picture)[:, 0], flat, self.atlas.size,
+                                 KEY_REACH * widest / texel, self.keep_darks)
             # no cliff steeper than paint stands: no black hairline under a light
             height = slope_limited(height, flat, self.atlas.size, MAX_SLOPE * texel / (THICKNESS * widest))
             if self.sheen > 0:
@@ -326,6 +332,42 @@ def _with_grain(painted, fine, strength):
     return from_oklab(lab)
 
 
+#: Keep Darks keys the paint's lightness, over this share of the broadest dabs' width (a Gaussian's
+#: deviation), to the mapped picture's, lowered towards the picture's own where that is dark: fully at an
+#: OKLab lightness of KEY_DARK[0] and below, not at all from KEY_DARK[1] (not below KEY_FLOOR, a palette's
+#: deepest umber or blue).  Smoothing and strokes spread a light's paint over the darks beside it; a
+#: painter keys the darks to the subject and keeps each stroke's own light and shade over it.
+KEY_REACH = 0.6
+KEY_FLOOR = 0.2
+KEY_DARK = (0.3, 0.6)
+
+
+def _blurred(values, flat, size, sigma):
+    """``values`` (M,) at the atlas texels ``flat`` blurred by a Gaussian ``sigma`` texels wide, over the texels
+    on the atlas's charts only."""
+    from scipy import ndimage
+
+    image = np.zeros(size * size)
+    image[flat] = values
+    weight = np.zeros(size * size)
+    weight[flat] = 1.0
+    image = ndimage.gaussian_filter(image.reshape(size, size), sigma, mode="constant")
+    weight = ndimage.gaussian_filter(weight.reshape(size, size), sigma, mode="constant")
+    return (image / np.maximum(weight, 1e-6)).ravel()[flat]
+
+
+def _keyed(painted, mapped, own, flat, size, sigma, strength):
+    """``painted`` (M, 3 sRGB) at the atlas texels ``flat`` with ``strength`` of its lightness at the scale
+    ``sigma`` (texels) moved to the key's: the ``mapped`` picture's lightness (M,, OKLab), lowered towards the
+    picture's ``own`` where that is dark (:data:`KEY_DARK`).  Each dab keeps its light and shade about it."""
+    lo, hi = KEY_DARK
+    dark = np.clip((hi - own) / (hi - lo), 0.0, 1.0)
+    key = mapped + dark * np.minimum(0.0, np.maximum(own, KEY_FLOOR) - mapped)
+    lab = to_oklab(painted)
+    lab[:, 0] += strength * (_blurred(key, flat, size, sigma) - _blurred(lab[:, 0], flat, size, sigma))
+    return from_oklab(within_gamut(lab))
+
+
 def _box(values, flat, size):
     """``values`` (M,) at the atlas texels ``flat`` (M,) averaged over each texel's 3 x 3 neighbours in
     the atlas (texels outside ``flat`` count as 0): a line's edge is anti-aliased over a texel.  The
@@ -339,7 +381,8 @@ def _box(values, flat, size):
 
 
 def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=None, palette=None,
-             weights=None, field=None, source=None, recolour=None, detail=0.0, level=None, sheen=0.0):
+             weights=None, field=None, source=None, recolour=None, detail=0.0, level=None, sheen=0.0,
+             keep_darks=0.0):
     """A :class:`Painting` of the band's filtered colours ``values`` (N, 3) on a mesh's atlas.
 
     Parameters
@@ -373,6 +416,9 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         ``source``; see :class:`Painting`).
     sheen : float in [0, 1]
         How much of the paint's relief is lit into its colour (see :class:`Painting`).
+    keep_darks : float in [0, 1]
+        How far the paint is keyed to the picture's lightness and its darks (with ``source``; see
+        :class:`Painting`).
     """
     values = np.asarray(values).reshape(band.size, -1)[:, :3]
     structure = values if structure is None else np.asarray(structure).reshape(band.size, -1)[:, :3]
@@ -396,4 +442,5 @@ def painting(mesh, band, values, atlas, *, brush=None, contours=0.0, structure=N
         lines = contour_field(band, structure, line_width(fine, band.h), fields[-1].direction)
     return Painting(mesh, atlas, dabs, strength=1.0 if brush is None else brush.strength, lines=lines,
                     contours=contours, ink=ink_colour(palette), source=source, recolour=recolour, jitter=jitter,
-                    detail=detail if dabs is not None else 0.0, sheen=sheen, fine=fine)
+                    detail=detail if dabs is not None else 0.0, sheen=sheen, fine=fine,
+                    keep_darks=keep_darks if dabs is not None else 0.0)

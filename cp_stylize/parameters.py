@@ -163,7 +163,10 @@ RUN = {p.name: p for p in (
     Parameter("keep_darks", "Keep Darks", "How much more of the picture's own light and dark the palette keeps in "
                                           "its darks than in its lights: the share kept rises from Keep Values "
                                           "towards 1 in the darkest tones (0: as much in every tone; a forest's "
-                                          "shade stays dark while its lights take the palette's light colours)",
+                                          "shade stays dark while its lights take the palette's light colours); "
+                                          "with strokes, the paint's light and dark over a broad stroke's width "
+                                          "keeps as much to the picture's, each stroke keeping its own light and "
+                                          "shade",
               0.0, 1.0, 0.0,
               file=("noise", "keep_darks")),
     Parameter("hue_snap", "Palette Hues", "How far the hues Fidelity brings back turn to the palette's nearest "

@@ -349,7 +349,7 @@ def run_painting(mesh, band, result, atlas, settings, *, sampled, field, colours
     return painting(mesh, band, result, atlas, brush=brush, contours=settings.contours, structure=sampled,
                     palette=settings.palette or None, weights=settings.palette_weights or None, field=field,
                     recolour=_recolour(settings), level=level, detail=settings.detail, source=source,
-                    sheen=settings.sheen)
+                    sheen=settings.sheen, keep_darks=settings.keep_darks)
 
 
 def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atlas=True, scheme="fast",

@@ -864,3 +864,32 @@ def test_the_relief_has_no_cliff_steeper_than_its_slope_and_is_lowered_only_at_c
     flat = np.flatnonzero(gutter.ravel())
     np.testing.assert_array_equal(slope_limited(two.ravel()[flat].astype(np.float32), flat, 8, step),
                                   two.ravel()[flat])
+
+
+def test_keep_darks_keys_the_paints_light_and_dark_to_the_pictures_and_keeps_each_strokes_own():
+    """Paint lifted over the picture's darks (smoothing and strokes spread the lights' paint over them) comes
+    down to the picture's darks at the scale of a broad stroke, while each stroke's own light and shade about
+    it stays; over the picture's lights the paint keys to the mapped picture's lightness alone."""
+    from cp_stylize.oklab import from_oklab, to_oklab
+    from cp_stylize.painting import KEY_DARK, KEY_REACH, _blurred, _keyed
+
+    size, width = 160, 10.0                                                # broad dabs ten texels wide
+    sigma = KEY_REACH * width
+    v, u = np.mgrid[0:size, 0:size]
+    own = np.where(u < size // 2, 0.15, 0.75).ravel()                     # a dark half and a light half
+    mapped = np.where(u < size // 2, 0.32, 0.8).ravel()                   # the palette lifted the darks
+    strokes = 0.06 * np.sign(np.sin(np.pi * (u + 0.4 * v) / width)).ravel()   # each dab lighter or darker
+    lifted = mapped + 0.08 + strokes                                       # and the painting lifted them more
+    lab = np.column_stack([lifted, np.full(size * size, 0.03), np.full(size * size, 0.05)])
+    painted = from_oklab(lab)
+    flat = np.flatnonzero(np.ones(size * size, bool))
+    keyed = to_oklab(_keyed(painted, mapped, own, flat, size, sigma, 1.0))[:, 0]
+    smooth = _blurred(keyed, flat, size, sigma)
+    inner = (np.abs(u - size // 2) > 4 * sigma).ravel() & (np.minimum(u, size - 1 - u) > 4 * sigma).ravel()
+    dark, light = inner & (own < KEY_DARK[0]), inner & (own > KEY_DARK[1])
+    assert np.abs(smooth[dark] - 0.2).max() < 0.01          # down to the picture's darks (not below the floor, 0.2)
+    assert np.abs(smooth[light] - 0.8).max() < 0.01         # the lights at the mapped picture's lightness
+    kept, before = keyed - smooth, lifted - _blurred(lifted, flat, size, sigma)    # each dab against the paint about it
+    assert np.corrcoef(kept[inner], strokes[inner])[0, 1] > 0.95     # each stroke's light and shade kept ...
+    assert np.std(kept[inner]) == pytest.approx(np.std(before[inner]), rel=0.15)     # ... at its strength
+    np.testing.assert_allclose(_keyed(painted, mapped, own, flat, size, sigma, 0.0), painted, atol=1e-6)
