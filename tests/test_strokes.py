@@ -893,3 +893,31 @@ def test_keep_darks_keys_the_paints_light_and_dark_to_the_pictures_and_keeps_eac
     assert np.corrcoef(kept[inner], strokes[inner])[0, 1] > 0.95     # each stroke's light and shade kept ...
     assert np.std(kept[inner]) == pytest.approx(np.std(before[inner]), rel=0.15)     # ... at its strength
     np.testing.assert_allclose(_keyed(painted, mapped, own, flat, size, sigma, 0.0), painted, atol=1e-6)
+
+
+def test_a_broad_blur_of_the_atlas_on_a_coarser_grid_is_the_gaussians_over_the_charts():
+    """The blur Keep Darks keys with, taken on a grid coarser by a whole factor when it is broad, is the Gaussian
+    of the texels on the charts (the texels off them counting for nothing) within a few hundredths of its range."""
+    from scipy import ndimage
+
+    from cp_stylize.painting import BLUR_CELLS, _blurred
+
+    size, sigma = 256, 12.0
+    v, u = np.mgrid[0:size, 0:size]
+    charts = ((u - 80) ** 2 + (v - 120) ** 2 < 70**2) | ((u > 170) & (u < 240) & (v > 20) & (v < 230))
+    flat = np.flatnonzero(charts.ravel())
+    rng = np.random.default_rng(4)
+    values = (np.where(u < 100, 0.2, 0.8) + 0.1 * rng.standard_normal((size, size))).ravel()[flat]
+    image, weight = np.zeros(size * size), np.zeros(size * size)
+    image[flat], weight[flat] = values, 1.0
+    exact = (ndimage.gaussian_filter(image.reshape(size, size), sigma, mode="constant")
+             / np.maximum(ndimage.gaussian_filter(weight.reshape(size, size), sigma, mode="constant"),
+                          1e-12)).ravel()[flat]
+    assert int(sigma / BLUR_CELLS) > 1                              # (the coarse grid is what is tested)
+    blurred = _blurred(values, flat, size, sigma)
+    assert np.quantile(np.abs(blurred - exact), 0.99) < 0.02 and np.abs(blurred - exact).max() < 0.05
+    np.testing.assert_allclose(_blurred(values, flat, size, 2.0),       # a narrow one is taken as it is
+                               (ndimage.gaussian_filter(image.reshape(size, size), 2.0, mode="constant")
+                                / np.maximum(ndimage.gaussian_filter(weight.reshape(size, size), 2.0,
+                                                                     mode="constant"), 1e-12)).ravel()[flat],
+                               atol=1e-9)
