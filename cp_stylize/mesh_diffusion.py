@@ -185,8 +185,8 @@ class MeshOperators:
     def directed_stiffness(self, along, across, direction):
         """The stiffness of the face tensors ``along P + (across - along) w w^T`` (``P`` the projector onto
         each face's plane, ``w`` (F, 3) a unit ``direction`` in it; ``along``, ``across`` (F,)): as
-        :meth:`stiffness` of :func:`_tensor`'s tensors, from each face's ``|T| G^T G`` and ``G^T w``
-        (the hat functions' gradients lie in the face's plane, so ``P`` leaves them as they are)."""
+        :meth:`stiffness` of those tensors, from each face's ``|T| G^T G`` and ``G^T w`` (the hat
+        functions' gradients lie in the face's plane, so ``P`` leaves them as they are)."""
         bw = np.einsum("fai,fa->fi", self.basis, direction)
         local = (self.local * along[:, None, None]
                  + (self.area * (across - along))[:, None, None] * (bw[:, :, None] * bw[:, None, :]))

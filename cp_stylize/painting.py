@@ -150,6 +150,8 @@ class Painting:
             if source is not None:
                 # the picture's lightness at the texture's resolution over the band's: its detail
                 fine = under[:, 0] - to_oklab(colours[:, :3].astype(np.float64))[:, 0]
+                if self.detail > 0 or self.keep_darks > 0:          # the picture's own lightness
+                    own = under[:, 0] if self.recolour is None else to_oklab(picture)[:, 0]
                 if self.detail > 0:
                     out = _with_grain(out, fine, self.detail)
                     # the thin lines no broad dab can carry, laid with a rigger
@@ -157,12 +159,12 @@ class Painting:
                     finest = scale / texel
                     wavelength = PRESSURE * scale
                     ink = min(1.0, THIN * self.detail)
-                    lined = thin_lines(to_oklab(picture)[:, 0], flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
+                    lined = thin_lines(own, flat, self.atlas.size, max(1.5, THIN_RADIUS * finest))
                     out, height = self._rigged(out, height, lined, where, faces, barys, wavelength,
                                                max(1.5, ink * THIN_WIDTH * finest), ink, THIN_PRESS, dabs,
                                                LONG_RUN * (1.0 - ink) * scale)
                 if self.keep_darks > 0:
-                    out = _keyed(out, under[:, 0], to_oklab(picture)[:, 0], flat, self.atlas.size,
+                    out = _keyed(out, under[:, 0], own, flat, self.atlas.size,
                                  KEY_REACH * widest / texel, self.keep_darks)
             # no cliff steeper than paint stands: no black hairline under a light
             height = slope_limited(height, flat, self.atlas.size, MAX_SLOPE * texel / (THICKNESS * widest))
