@@ -129,12 +129,25 @@ def decide_atlas(vertices, faces, size, uvs=None, *, new_atlas=True, cache=None)
     return _atlas(mesh, size, uvs, new_atlas, cache)
 
 
+def _principal_directions(band, cache=None):
+    """The band's principal directions (2, N, 3: of the larger curvature, then the smaller) and the confidence
+    in them (N,), single precision, read-only; kept in ``cache`` under ``"curvature"`` for the band."""
+    def build():
+        curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
+        return (read_only(np.stack([curvature.e1, curvature.e2]).astype(np.float32)),
+                read_only(curvature.confidence.astype(np.float32)))
+
+    if cache is None:
+        return build()
+    return cache.get("curvature", (cache.owner, band.h, band.stencil), build)
+
+
 def _atlas(mesh, size, uvs, new_atlas, cache):
     """:func:`decide_atlas` for the normalised ``mesh`` of the run begun in ``cache``."""
     return cache.get("atlas", (digest(uvs), size, new_atlas), lambda: uv_atlas(mesh, size, uvs, allow_new=new_atlas))
 
 
-def stroke_field(band, settings, directions=None):
+def stroke_field(band, settings, directions=None, cache=None):
     """The direction field the strokes follow, for :func:`cp_stylize.diffuse`'s ``field=``.
 
     From ``settings.stroke_direction`` (:data:`cp_stylize.parameters.DIRECTIONS`):
@@ -154,13 +167,16 @@ def stroke_field(band, settings, directions=None):
     - ``"attribute"``: ``directions``, per-corner vectors (F, 3, 3) of the
       mesh, each normalised and mixed across its face with the signs of the
       face's first corner (see :func:`sample_directions`).
+
+    The principal directions depend on the band alone: with a ``cache`` of the run on the band's mesh,
+    they are kept for the next run on the same band (another preset or slider costs no second curvature).
     """
     source = settings.stroke_direction
     if source == "texture":
         return None
     if source in ("max", "min"):
-        curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
-        field = curvature.direction(source) * curvature.confidence[:, None]
+        principal, confidence = _principal_directions(band, cache)
+        field = principal[0 if source == "max" else 1] * confidence[:, None]
         if settings.strokes > 0 or settings.hatch_spacing > 0:   # strokes and lines: along the object's axis
             # where the form has no direction
             field = form_field(band, field, around=source == "max")
@@ -415,7 +431,7 @@ def stylize(vertices, faces, colours, settings, *, uvs=None, atlas=None, new_atl
     values = palette_colours(sampled, settings)
     clock.lap("bake_in")
     report(0.15)
-    field = stroke_field(band, settings, directions)
+    field = stroke_field(band, settings, directions, cache)
     result = diffuse(band, values, **settings.diffusion_parameters(), scheme=scheme,
                      field=field if settings.mode in DIRECTED_MODES else None,
                      progress=lambda f: report(0.15 + 0.7 * f))

@@ -53,6 +53,21 @@ def test_a_re_run_with_new_filter_parameters_matches_a_fresh_run(scene, preset):
     assert np.abs(rerun.image - first.image).max() > 0.01
 
 
+def test_a_re_run_along_the_form_keeps_the_curvature_and_matches_a_fresh_run(scene):
+    """The principal directions depend on the band alone: another look along the form on the same band
+    takes them from the cache, and its image is a fresh run's; a new grid computes them again."""
+    cache = RunCache()
+    form = _settings("van_gogh_form")                  # strokes along the form
+    _run(scene, form, cache)
+    assert "curvature" not in cache.reused and "curvature" in cache
+    longer = form.replace(T=2 * form.T)
+    rerun = _run(scene, longer, cache)
+    assert "curvature" in cache.reused
+    np.testing.assert_array_equal(rerun.image, _run(scene, longer).image)
+    _run(scene, form.replace(spacing=0.04), cache)
+    assert "curvature" not in cache.reused
+
+
 def test_a_moved_vertex_or_a_new_grid_builds_the_band_again(scene):
     cache = RunCache()
     _run(scene, _settings(), cache)
