@@ -66,7 +66,8 @@ run() {
   at="/mnt/checkout_$$"   # a Python identifier: pytest imports the checkout root as a package
   mkdir -p "$ROOT$at"
   mount --bind "$PWD" "$ROOT$at"
-  trap 'umount "$ROOT$at" 2>/dev/null && rmdir "$ROOT$at"' EXIT
+  # a window's X server may still be closing when the run ends: then the mount is detached lazily
+  trap 'umount "$ROOT$at" 2>/dev/null || umount -l "$ROOT$at"; rmdir "$ROOT$at"' EXIT
   local cmd
   cmd=$(printf '%q ' "$@")
   if [ $gui = 1 ]; then
