@@ -87,6 +87,9 @@ BYTES_PER_TEXEL = 128
 #: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
 #: indices on the baked share and the margin) ...
 BYTES_KEPT_PER_TEXEL = 680
+#: ... a band point, for strokes along the form: its two principal directions and the confidence in them, in
+#: single precision, which a run with a cache keeps (:func:`cp_stylize.pipeline.stroke_field`) ...
+BYTES_KEPT_CURVATURE_PER_POINT = 28
 #: ... a pixel of the input images (their float RGBA pixels read out, and the host's own buffer of
 #: them: 16 bytes each for a float image in Blender) ...
 BYTES_PER_IMAGE_PIXEL = 32
@@ -137,6 +140,8 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
+    if keep and settings.stroke_direction in ("max", "min"):
+        nbytes += n_points * BYTES_KEPT_CURVATURE_PER_POINT
     return seconds * speed, nbytes
 
 

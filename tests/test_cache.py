@@ -6,7 +6,7 @@ import pytest
 from cp_stylize import Torus
 from cp_stylize.cache import RunCache, digest
 from cp_stylize.mesh import parametric_mesh
-from cp_stylize.estimate import estimate_run
+from cp_stylize.estimate import BYTES_KEPT_CURVATURE_PER_POINT, estimate_run
 from cp_stylize.pipeline import ColourInput, Texture, decide_atlas, stylize
 from cp_stylize.presets import load_preset
 
@@ -60,6 +60,12 @@ def test_a_re_run_along_the_form_keeps_the_curvature_and_matches_a_fresh_run(sce
     form = _settings("van_gogh_form")                  # strokes along the form
     _run(scene, form, cache)
     assert "curvature" not in cache.reused and "curvature" in cache
+    # what it keeps is what a run's estimate counts for it
+    band = cache.part("band")
+    assert sum(a.nbytes for a in cache.part("curvature")) == band.size * BYTES_KEPT_CURVATURE_PER_POINT
+    with_cache, alone = (estimate_run(band.size, form, 3, len(scene[1]), keep=k)[1] for k in (True, False))
+    starry = [estimate_run(band.size, _settings("starry_night"), 3, len(scene[1]), keep=k)[1] for k in (True, False)]
+    assert with_cache - alone == band.size * BYTES_KEPT_CURVATURE_PER_POINT + starry[0] - starry[1]
     longer = form.replace(T=2 * form.T)
     rerun = _run(scene, longer, cache)
     assert "curvature" in cache.reused
