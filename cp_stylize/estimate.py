@@ -16,6 +16,7 @@ import numpy as np
 
 from .atlas import XATLAS_FACES
 from .grid import estimate_band_size
+from .parameters import CURVATURE_DIRECTIONS
 from .pipeline import KEEP_BAKE_TEXELS, normalisation, stencil_for
 
 __all__ = ["RunEstimate", "estimate", "estimate_run", "estimate_vertices"]
@@ -140,7 +141,7 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     nbytes += image_pixels * BYTES_PER_IMAGE_PIXEL
     if keep and BAKED_SHARE * texels <= KEEP_BAKE_TEXELS:
         nbytes += BAKED_SHARE * texels * BYTES_KEPT_PER_TEXEL
-    if keep and settings.stroke_direction in ("max", "min"):
+    if keep and settings.stroke_direction in CURVATURE_DIRECTIONS:
         nbytes += n_points * BYTES_KEPT_CURVATURE_PER_POINT
     return seconds * speed, nbytes
 

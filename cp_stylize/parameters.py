@@ -25,8 +25,8 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "AXIS_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value", "takes_direction",
-           "paints_shading"]
+           "DIRECTED_MODES", "AXIS_DIRECTIONS", "CURVATURE_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value",
+           "takes_direction", "paints_shading"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -355,6 +355,8 @@ DIRECTIONS = {
 }
 #: The directions that read the settings' axis (in the object's space).
 AXIS_DIRECTIONS = ("axis", "around")
+#: The directions of the surface's own principal curvatures.
+CURVATURE_DIRECTIONS = ("max", "min")
 
 #: How palette noise picks its colours: name -> (label, description), in the order the panel lists them.
 NOISE_MAPPINGS = {

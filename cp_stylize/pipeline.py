@@ -48,7 +48,7 @@ from .painting import painting
 from .palette import map_to_palette, palette_noise
 from .shading import EDGE_DEPTH, LIGHT_DEPTH, FormShading, shaded
 from .seams import SeamHealing, seam_edges
-from .parameters import AXIS_DIRECTIONS, DIRECTED_MODES
+from .parameters import AXIS_DIRECTIONS, CURVATURE_DIRECTIONS, DIRECTED_MODES
 from .stroke_field import form_field, level_field, level_share, sample_directions
 from .strokes import Brush
 from .sampling import ColourInput, Texture, colours_at, picture_level, sample_colours
@@ -130,11 +130,12 @@ def decide_atlas(vertices, faces, size, uvs=None, *, new_atlas=True, cache=None)
 
 
 def _principal_directions(band, cache=None):
-    """The band's principal directions (2, N, 3: of the larger curvature, then the smaller) and the confidence
-    in them (N,), single precision, read-only; kept in ``cache`` under ``"curvature"`` for the band."""
+    """The band's principal directions (``"max"`` and ``"min"`` -> (N, 3), as
+    :meth:`cp_stylize.curvature.Curvature.direction` names them) and the confidence in them (N,), single
+    precision, read-only; kept in ``cache`` under ``"curvature"`` for the band."""
     def build():
         curvature = principal_curvatures(band, smooth=CURVATURE_SMOOTHING * band.h**2)
-        return (read_only(np.stack([curvature.e1, curvature.e2]).astype(np.float32)),
+        return ({which: read_only(curvature.direction(which).astype(np.float32)) for which in CURVATURE_DIRECTIONS},
                 read_only(curvature.confidence.astype(np.float32)))
 
     if cache is None:
@@ -174,9 +175,9 @@ def stroke_field(band, settings, directions=None, cache=None):
     source = settings.stroke_direction
     if source == "texture":
         return None
-    if source in ("max", "min"):
+    if source in CURVATURE_DIRECTIONS:
         principal, confidence = _principal_directions(band, cache)
-        field = principal[0 if source == "max" else 1] * confidence[:, None]
+        field = principal[source] * confidence[:, None]
         if settings.strokes > 0 or settings.hatch_spacing > 0:   # strokes and lines: along the object's axis
             # where the form has no direction
             field = form_field(band, field, around=source == "max")

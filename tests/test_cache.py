@@ -62,7 +62,9 @@ def test_a_re_run_along_the_form_keeps_the_curvature_and_matches_a_fresh_run(sce
     assert "curvature" not in cache.reused and "curvature" in cache
     # what it keeps is what a run's estimate counts for it
     band = cache.part("band")
-    assert sum(a.nbytes for a in cache.part("curvature")) == band.size * BYTES_KEPT_CURVATURE_PER_POINT
+    directions, confidence = cache.part("curvature")
+    kept = sum(a.nbytes for a in directions.values()) + confidence.nbytes
+    assert kept == band.size * BYTES_KEPT_CURVATURE_PER_POINT
     with_cache, alone = (estimate_run(band.size, form, 3, len(scene[1]), keep=k)[1] for k in (True, False))
     starry = [estimate_run(band.size, _settings("starry_night"), 3, len(scene[1]), keep=k)[1] for k in (True, False)]
     assert with_cache - alone == band.size * BYTES_KEPT_CURVATURE_PER_POINT + starry[0] - starry[1]
