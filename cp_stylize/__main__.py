@@ -50,7 +50,7 @@ def main(argv=None):
     p.add_argument("--preset", default="starry_night", help="preset to run (default: starry_night)")
     p.add_argument("--quality", default="standard", choices=["preview", "standard", "high"],
                    help="grid spacing relative to the object (default: standard)")
-    p.add_argument("--size", default="1024", choices=["512", "1024", "2048", "4096"], help="texture size")
+    p.add_argument("--size", default="1024", choices=["512", "1024", "2048", "4096", "8192"], help="texture size")
     p.set_defaults(func=_demo)
     p = sub.add_parser("paper", help="redraw the paper's experiments (Fig. 4 and a Fig. 5-like CED) as PNGs")
     p.add_argument("--out", default="paper_out", help="output folder (default: paper_out)")
@@ -62,7 +62,8 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="coarse grids, for a smoke run (under a minute)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON to FILE")
     p.add_argument("--cases", nargs="+", metavar="CASE",
-                   help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs, mesh (default: all)")
+                   help="only these cases: torus, suzanne, scan, high, atlas4096, rerun, no_uvs, mesh, and atlas8192 "
+                        "(about 8 GiB; default: all but atlas8192)")
     p.set_defaults(func=_bench)
     p = sub.add_parser("looks", help="measure the presets' looks on the photo sphere, Suzanne and a city photograph (minutes)")
     p.add_argument("--out", default="looks_out", help="output folder for the atlases (default: looks_out)")

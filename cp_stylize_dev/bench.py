@@ -27,6 +27,8 @@ h = 0.008 unless said):
   point search is timed against the same search on 15,744 triangles;
 - ``high``: subdivision 2 at the High grid (h = 0.005), Starry Night;
 - ``atlas4096``: subdivision 3, Gaussian Blur into a 4096 x 4096 atlas;
+- ``atlas8192``: the same into an 8192 x 8192 atlas (about 8 GiB at its peak: run only when named, with
+  ``--cases atlas8192``);
 - ``rerun``: subdivision 2, Denoise (EED), then the same with twice the time
   and then Starry Night, each with the first run's :class:`~cp_stylize.cache.RunCache`;
 - ``no_uvs``: a scan-like sphere of 501,264 triangles without UVs (a UV
@@ -170,10 +172,13 @@ SCALE = {
     "scan": {"levels": 5, "preset": "starry_night", "h": 0.008, "size": 1024},
     "high": {"levels": 2, "preset": "starry_night", "h": 0.005, "size": 1024},
     "atlas4096": {"levels": 3, "preset": "gaussian_blur", "h": 0.008, "size": 4096},
+    "atlas8192": {"levels": 3, "preset": "gaussian_blur", "h": 0.008, "size": 8192},
     "rerun": {"levels": 2, "preset": "denoise_eed", "h": 0.008, "size": 1024},
     "no_uvs": {"levels": None, "preset": "denoise_eed", "h": 0.008, "size": 1024},
     "mesh": {"levels": None, "preset": "denoise_eed", "around": 1530},
 }
+#: The scale cases run only when named: they need more memory than a small machine has.
+ON_REQUEST = ("atlas8192",)
 
 
 def _closest_points_seconds(vertices, faces, h, stencil):
@@ -350,7 +355,8 @@ def heat_steps(spacings=(0.05, 0.025), steps=20, repeat=3, log=print):
     return rows
 
 
-def run(quick=False, json_path=None, cases=("torus", "suzanne") + tuple(SCALE), log=print):
+def run(quick=False, json_path=None, cases=("torus", "suzanne") + tuple(c for c in SCALE if c not in ON_REQUEST),
+        log=print):
     """Run the benchmark; returns its figures (also written to ``json_path`` if given)."""
     report = {"cores": workers(), "quick": bool(quick), "runs": [], "cases": {}, "scale": {}}
     log(f"cp_stylize bench{' --quick' if quick else ''}: {workers()} core(s)")

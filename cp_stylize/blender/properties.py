@@ -152,7 +152,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise and the strokes", default=0,
                                 min=SEED_LIMITS[0], max=SEED_LIMITS[1])
     image_size: bpy.props.EnumProperty(
-        name="Image Size", items=[(s, s, f"{s} x {s} pixels") for s in ("512", "1024", "2048", "4096")],
+        name="Image Size", items=[(s, s, f"{s} x {s} pixels") for s in ("512", "1024", "2048", "4096", "8192")],
         default="1024",
     )
     image_name: bpy.props.StringProperty(name="Image Name", description="Name of the new image "

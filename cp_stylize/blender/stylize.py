@@ -200,15 +200,21 @@ def check_limits(estimate, output):
     """Raise StylizeError if a run's estimated memory or time is above the limits or this computer's memory."""
     where = f"about {estimate.band_points:,} band points" if estimate.band_points else "on the mesh's own vertices"
     need = f"this run needs about {estimate.bytes / 2**30:.1f} GiB ({where})"
+    costs = ["the quality", "the image size"] if output.kind == "IMAGE" else ["the quality"]    # what sets them
+
+    def lower(*more):
+        said = costs + list(more)
+        return "lower " + (said[0] if len(said) == 1 else ", ".join(said[:-1]) + " or " + said[-1])
+
     memory = physical_memory()
     if memory is not None and estimate.bytes > memory:
-        raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: lower the quality")
+        raise StylizeError(f"{need}, more than this computer's {memory / 2**30:.1f} GiB of memory: {lower()}")
     if estimate.bytes > output.memory_limit:
         raise StylizeError(f"{need}, above the memory limit of {output.memory_limit / 2**30:.1f} GiB: "
-                           "lower the quality or raise Max RAM (under Output)")
+                           f"{lower()}, or raise Max RAM (under Output)")
     if estimate.seconds > output.time_limit:
         raise StylizeError(f"this run would take roughly {duration(estimate.seconds)}, above the time limit of "
-                           f"{duration(output.time_limit)}: lower the quality or the time, or raise Max Time "
+                           f"{duration(output.time_limit)}: {lower('the time')}, or raise Max Time "
                            "(under Output)")
 
 

@@ -1396,7 +1396,8 @@ def test_a_run_estimated_above_the_time_limit_is_refused(addon, monkeypatch):
     before = snapshot()
     message = run_error()
     assert message.startswith("this run would take roughly ") and message.endswith(
-        ", above the time limit of 15 min: lower the quality or the time, or raise Max Time (under Output)")
+        ", above the time limit of 15 min: lower the quality, the image size or the time, or raise Max Time "
+        "(under Output)")
     assert " h " in message  # hours
     assert_unchanged(before, snapshot())
 
@@ -1411,7 +1412,7 @@ def test_the_memory_limit_stops_at_the_computers_memory(addon, monkeypatch):
     before = snapshot()
     message = run_error()
     assert message.startswith("this run needs about ") and message.endswith(
-        "more than this computer's 1.0 GiB of memory: lower the quality")
+        "more than this computer's 1.0 GiB of memory: lower the quality or the image size")
     assert_unchanged(before, snapshot())
 
 

@@ -384,7 +384,26 @@ def test_a_large_input_image_counts_in_the_estimate_and_the_limit_stops_the_run_
     before = snapshot()
     assert error(bpy.ops.object.cp_stylize) == (
         f"this run needs about {with_image / 2**30:.1f} GiB (about {n:,} band points), above the memory limit of "
-        f"{addon.memory_limit:.1f} GiB: lower the quality or raise Max RAM (under Output)")
+        f"{addon.memory_limit:.1f} GiB: lower the quality or the image size, or raise Max RAM (under Output)")
+    assert_unchanged(before, snapshot())
+
+
+def test_an_8192_image_is_offered_and_counted_and_the_memory_limit_refuses_it_before_the_run(addon, monkeypatch):
+    from cp_stylize.blender import operators, stylize
+
+    sizes = [item.identifier for item in addon.bl_rna.properties["image_size"].enum_items]
+    assert sizes[-1] == "8192"
+    obj = sphere(material=image_material("Painted", halves("source")))
+    _, n, small, _ = operators.estimate(obj, addon.to_settings())
+    addon.image_size = "8192"
+    _, _, large, seconds = operators.estimate(obj, addon.to_settings())
+    assert large - small > 48 * (8192**2 - 512**2)        # its texels count (a plain filter: 128 bytes each)
+    addon.memory_limit = (small + large) / 2 / 2**30      # room for the run at 512, not at 8192
+    monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
+    before = snapshot()
+    assert error(bpy.ops.object.cp_stylize) == (
+        f"this run needs about {large / 2**30:.1f} GiB (about {n:,} band points), above the memory limit of "
+        f"{addon.memory_limit:.1f} GiB: lower the quality or the image size, or raise Max RAM (under Output)")
     assert_unchanged(before, snapshot())
 
 
