@@ -7,6 +7,8 @@ import argparse
 import importlib
 import sys
 
+from .parameters import IMAGE_SIZE_CHOICES
+
 
 def _tool(name):
     """A development tool of ``cp_stylize_dev`` (in a checkout only)."""
@@ -50,7 +52,7 @@ def main(argv=None):
     p.add_argument("--preset", default="starry_night", help="preset to run (default: starry_night)")
     p.add_argument("--quality", default="standard", choices=["preview", "standard", "high"],
                    help="grid spacing relative to the object (default: standard)")
-    p.add_argument("--size", default="1024", choices=["512", "1024", "2048", "4096", "8192"], help="texture size")
+    p.add_argument("--size", default="1024", choices=[str(s) for s in IMAGE_SIZE_CHOICES], help="texture size")
     p.set_defaults(func=_demo)
     p = sub.add_parser("paper", help="redraw the paper's experiments (Fig. 4 and a Fig. 5-like CED) as PNGs")
     p.add_argument("--out", default="paper_out", help="output folder (default: paper_out)")

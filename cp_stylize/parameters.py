@@ -25,8 +25,8 @@ import dataclasses
 import math
 
 __all__ = ["Parameter", "Filter", "RUN", "FILTER_PARAMETERS", "FILTERS", "MODES", "DEFAULTS", "DIRECTIONS",
-           "DIRECTED_MODES", "AXIS_DIRECTIONS", "CURVATURE_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS", "check_value",
-           "takes_direction", "paints_shading"]
+           "DIRECTED_MODES", "AXIS_DIRECTIONS", "CURVATURE_DIRECTIONS", "NOISE_MAPPINGS", "SEED_LIMITS",
+           "IMAGE_SIZE_CHOICES", "check_value", "takes_direction", "paints_shading"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -357,6 +357,9 @@ DIRECTIONS = {
 AXIS_DIRECTIONS = ("axis", "around")
 #: The directions of the surface's own principal curvatures.
 CURVATURE_DIRECTIONS = ("max", "min")
+#: The image sizes the panel and the demo offer, in texels a side (a preset file may ask for any size within
+#: :data:`cp_stylize.settings.IMAGE_SIZES`).
+IMAGE_SIZE_CHOICES = (512, 1024, 2048, 4096, 8192)
 
 #: How palette noise picks its colours: name -> (label, description), in the order the panel lists them.
 NOISE_MAPPINGS = {

@@ -22,8 +22,8 @@ the one place for what to do with the result.
 
 import bpy
 
-from ..parameters import (AXIS_DIRECTIONS, DIRECTIONS, FILTER_PARAMETERS, FILTERS, NOISE_MAPPINGS, RUN, SEED_LIMITS,
-                          takes_direction)
+from ..parameters import (AXIS_DIRECTIONS, DIRECTIONS, FILTER_PARAMETERS, FILTERS, IMAGE_SIZE_CHOICES, NOISE_MAPPINGS,
+                          RUN, SEED_LIMITS, takes_direction)
 
 #: Grid spacing relative to an object whose diameter is 2, by quality.
 QUALITY_SPACING = {"PREVIEW": 0.016, "STANDARD": 0.008, "HIGH": 0.005}
@@ -152,7 +152,7 @@ class CPStylizeSettings(bpy.types.PropertyGroup):
     seed: bpy.props.IntProperty(name="Seed", description="Random seed of the noise and the strokes", default=0,
                                 min=SEED_LIMITS[0], max=SEED_LIMITS[1])
     image_size: bpy.props.EnumProperty(
-        name="Image Size", items=[(s, s, f"{s} x {s} pixels") for s in ("512", "1024", "2048", "4096", "8192")],
+        name="Image Size", items=[(str(s), str(s), f"{s} x {s} pixels") for s in IMAGE_SIZE_CHOICES],
         default="1024",
     )
     image_name: bpy.props.StringProperty(name="Image Name", description="Name of the new image "

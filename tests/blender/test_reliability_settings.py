@@ -396,7 +396,7 @@ def test_an_8192_image_is_offered_and_counted_and_the_memory_limit_refuses_it_be
     obj = sphere(material=image_material("Painted", halves("source")))
     _, n, small, _ = operators.estimate(obj, addon.to_settings())
     addon.image_size = "8192"
-    _, _, large, seconds = operators.estimate(obj, addon.to_settings())
+    _, _, large, _ = operators.estimate(obj, addon.to_settings())
     assert large - small > 48 * (8192**2 - 512**2)        # its texels count (a plain filter: 128 bytes each)
     addon.memory_limit = (small + large) / 2 / 2**30      # room for the run at 512, not at 8192
     monkeypatch.setattr(stylize, "run_core", lambda *a, **k: pytest.fail("the core ran"))
