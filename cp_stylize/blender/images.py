@@ -1,6 +1,7 @@
 """Pixels between Blender images and NumPy arrays (row 0 at the bottom, as Blender stores them)."""
 
 import os
+import tempfile
 
 import bpy
 import numpy as np
@@ -40,11 +41,80 @@ def array_to_image(name, array, *, colorspace="sRGB", float_buffer=False):
     return image
 
 
+def tile_offset(number):
+    """The UV square of UDIM tile ``number``: (u, v) of its lower left corner (1001: (0, 0), 1012: (1, 1))."""
+    return (number - 1001) % 10, (number - 1001) // 10
+
+
+def _tile_path(image, number):
+    """The file of a tiled image's tile ``number``: its path with the ``<UDIM>`` (1001) or ``<UVTILE>`` (u1_v1)
+    token filled in."""
+    u, v = tile_offset(number)
+    path = bpy.path.abspath(image.filepath_raw, library=image.library)
+    return path.replace("<UDIM>", str(number)).replace("<UVTILE>", f"u{u + 1}_v{v + 1}")
+
+
+def _check_tiles(image):
+    """Raise StylizeError if a tiled (UDIM) image's tiles cannot each be read from its files or packed data."""
+    fix = "save it (Image > Save in the Image Editor) and press Stylize again"
+    if image.is_dirty:
+        raise StylizeError(f"image {image.name!r} is a tiled (UDIM) image with changes that are not saved (its "
+                           f"tiles are read from their files or packed data): {fix}")
+    packed = {p.tile_number for p in image.packed_files}
+    if packed:
+        missing = [t.number for t in image.tiles if t.number not in packed]
+        if missing:
+            raise StylizeError(f"image {image.name!r}: its tile {missing[0]} is not packed with the others: pack "
+                               "them all (Image > Pack in the Image Editor), or unpack them all, and press Stylize "
+                               "again")
+        return
+    if not image.filepath_raw:
+        raise StylizeError(f"image {image.name!r} is a tiled (UDIM) image with no files (its tiles are read from "
+                           f"their files or packed data): {fix}")
+    for tile in image.tiles:
+        path = _tile_path(image, tile.number)
+        if not os.path.isfile(path):
+            raise StylizeError(f"image {image.name!r}: the file {path!r} of its tile {tile.number} is missing: find "
+                               "it again (File > External Data > Find Missing Files), or choose another image")
+
+
+def read_tiles(image, read, numbers=None):
+    """``[(tile number, read(tile))]`` for each tile of a tiled (UDIM) image (of those ``numbers``, if given),
+    each ``tile`` a temporary single image in the tiled image's colour space, removed once read.
+
+    A tiled image's ``pixels`` are those of its first tile alone, so each tile is
+    loaded again from its own file, or from its packed data through a
+    temporary file (:func:`check_readable` first), one at a time.
+    """
+    packed = {p.tile_number: p for p in image.packed_files}
+    read_ = []
+    with tempfile.TemporaryDirectory(prefix="cp_stylize_tiles_") as folder:
+        for tile in image.tiles:
+            if numbers is not None and tile.number not in numbers:
+                continue
+            path = _tile_path(image, tile.number)
+            if tile.number in packed:
+                path = os.path.join(folder, f"{tile.number}_{os.path.basename(packed[tile.number].filepath)}")
+                with open(path, "wb") as file:
+                    file.write(packed[tile.number].packed_file.data)
+            one = bpy.data.images.load(path, check_existing=False)
+            try:
+                one.colorspace_settings.name = image.colorspace_settings.name
+                if one.size[0] == 0 or one.size[1] == 0:
+                    raise StylizeError(f"image {image.name!r}: its tile {tile.number} could not be read (it is "
+                                       "damaged, or not an image Blender can open): replace it, or choose another "
+                                       "image")
+                read_.append((tile.number, read(one)))
+            finally:
+                bpy.data.images.remove(one)
+    return read_
+
+
 def check_readable(image):
     """Raise StylizeError for images cp_stylize cannot read."""
     if image.source == "TILED":
-        raise StylizeError(f"image {image.name!r} is a tiled (UDIM) image, which cp_stylize cannot read: use a single "
-                           "image for this material, or bake the tiles into one first")
+        _check_tiles(image)
+        return
     if image.source not in ("FILE", "GENERATED"):
         kind = {"SEQUENCE": "an image sequence", "MOVIE": "a movie", "VIEWER": "a viewer image"}.get(
             image.source, f"an image of source {image.source.lower()}")

@@ -230,6 +230,10 @@ def _check_writable(material, output):
 # -- reading -----------------------------------------------------------------------------------
 
 
+#: The colour Cycles shows where a tiled image has no tile under a face's UVs (magenta, as for a missing image).
+MISSING_TILE = (1.0, 0.0, 1.0)
+
+
 def _image_texture(source, mesh, faces, material, owner):
     from ..pipeline import Texture
 
@@ -253,9 +257,29 @@ def _image_texture(source, mesh, faces, material, owner):
         if not np.isfinite(uvs[faces]).all():
             raise StylizeError(f"the Mapping node {source.mapping!r} in material {material.name!r} maps the UVs "
                                "beyond finite numbers: lower its scale")
+    if image.source != "TILED":
+        return [Texture(_display_colours(image), uvs, faces, (source.wrap, source.wrap))]
+    # a tiled (UDIM) image: each tile colours the faces whose UVs centre on its square, read there as an image
+    # of its own with the node's extension at its edges, as Cycles reads a tile
+    centre = np.floor(uvs[faces].mean(axis=1))
+    number = np.where((centre[:, 0] >= 0) & (centre[:, 0] < 10) & (centre[:, 1] >= 0),
+                      1001 + centre[:, 0] + 10 * centre[:, 1], 0)
+    textures = []
+    for tile, pixels in images.read_tiles(image, _display_colours, set(np.unique(number).astype(int).tolist())):
+        on = np.zeros_like(faces)
+        on[faces] = number == tile
+        textures.append(Texture(pixels, uvs - np.float32(images.tile_offset(tile)), on, (source.wrap, source.wrap)))
+    missing = faces.copy()
+    for texture in textures:
+        missing &= ~texture.faces
+    if missing.any():       # faces on no tile: Cycles shows them in its colour of a missing image
+        textures.append(Texture(np.array([[MISSING_TILE]], np.float32), uvs, missing, ("clamp", "clamp")))
+    return textures
+
+
+def _display_colours(image):
     linear = image.is_float or image.colorspace_settings.name in materials.LINEAR_SPACES
-    pixels = images.display_colours(image, linear)
-    return Texture(pixels, uvs, faces, (source.wrap, source.wrap))
+    return images.display_colours(image, linear)
 
 
 def _read_colours(obj, mesh, slots):
@@ -280,7 +304,7 @@ def _read_colours(obj, mesh, slots):
         if isinstance(source, materials.Flat):
             corner[faces] = source.colour
         elif isinstance(source, materials.ImageSource):
-            colours.textures.append(_image_texture(source, mesh, faces, material, obj.name))
+            colours.textures += _image_texture(source, mesh, faces, material, obj.name)
         elif isinstance(source, materials.AttributeSource) and (source.name or mesh.render_colour) in mesh.colours:
             corner[faces] = mesh.colours[source.name or mesh.render_colour][faces]
         else:
@@ -299,7 +323,8 @@ def input_pixels(obj, uv_names, slots, settings):
             continue
         source = materials.colour_source(materials.source_material(material), uv_names, obj.name)
         if isinstance(source, materials.ImageSource):
-            pixels += source.image.size[0] * source.image.size[1]
+            tiles = source.image.tiles if source.image.source == "TILED" else [source.image]
+            pixels += sum(t.size[0] * t.size[1] for t in tiles)
         elif not isinstance(source, (materials.Flat, materials.AttributeSource)):
             baked = True
     return pixels + (settings.image_size ** 2 if baked else 0)

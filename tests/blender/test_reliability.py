@@ -665,6 +665,124 @@ def test_images_are_read_as_cycles_renders_them(addon, case):
     assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
 
 
+def udim_image(folder, *, packed):
+    """A tiled (UDIM) image of three tiles of different sizes and colours (1001, 1002 and 1011), from files in
+    ``folder`` (``Tiles.<UDIM>.png``), packed or not."""
+    for number, size, order in ((1001, 64, [0, 1, 2]), (1002, 32, [2, 0, 1]), (1011, 48, [1, 2, 0])):
+        image = smooth_image(f"tile {number}", size=size, pack=False)
+        rgba = pixels(image)[..., order]
+        image.pixels.foreach_set(np.concatenate([rgba, np.ones(rgba.shape[:2] + (1,))], axis=-1).astype(
+            np.float32).ravel())
+        image.filepath_raw, image.file_format = str(folder / f"Tiles.{number}.png"), "PNG"
+        image.save()
+        bpy.data.images.remove(image)
+    image = bpy.data.images.load(str(folder / "Tiles.1001.png"))
+    image.source = "TILED"          # Blender finds the other tiles beside the first
+    assert sorted(t.number for t in image.tiles) == [1001, 1002, 1011]
+    if packed:
+        image.pack()
+        for number in (1001, 1002, 1011):
+            os.remove(folder / f"Tiles.{number}.png")
+    return image
+
+
+def spread_over_tiles(obj, off_tiles=False):
+    """Move the faces of ``obj``'s UV map onto the tiles 1001, 1002 and 1011 by where they are (and with
+    ``off_tiles``, those at the bottom onto the square of 1005, which the image does not have)."""
+    mesh = obj.data
+    layer = mesh.uv_layers[0]
+    uv = np.empty(2 * len(mesh.loops))
+    layer.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    for poly in mesh.polygons:
+        loops = list(poly.loop_indices)
+        if off_tiles and poly.center.z < -0.6:
+            uv[loops] += (4.0, 0.0)                                         # no tile
+        elif poly.center.z > 0.3:
+            uv[loops] += (0.0, 1.0)                                         # tile 1011
+        elif poly.center.x < 0:
+            uv[loops] += (1.0, 0.0)                                         # tile 1002
+    layer.data.foreach_set("uv", uv.ravel())
+
+
+@pytest.mark.parametrize("packed", [False, True], ids=["files", "packed"])
+def test_a_tiled_image_is_read_from_every_tile_as_cycles_renders_it(addon, tmp_path, packed):
+    from cp_stylize.blender import stylize
+
+    image = udim_image(tmp_path, packed=packed)
+    material = image_material("Tiled", image)
+    obj = sphere(material=material, segments=48, rings=24)
+    spread_over_tiles(obj, off_tiles=True)
+    centres = job_centres_uv(obj)
+    job = stylize.prepare(obj, addon.to_settings())
+    assert len(job.colours.textures) == 4          # one image a tile, each read on its own faces, and no tile
+    direct = _colours_at_face_centres(job)
+    obj.material_slots[0].material = _baked_twin(material)
+    baked = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    error = np.abs(direct - baked).max(axis=1)
+    for tile in ((0, 0), (1, 0), (0, 1), (4, 0)):
+        on = np.all(np.floor(centres) == tile, axis=1)
+        assert on.sum() > 100
+        print(f"\ntile {tile}: median {np.median(error[on]):.4f}, 98th percentile {np.percentile(error[on], 98):.4f}")
+        # each tile's edges as Cycles reads them: clamped instead of repeated (the node's extension), the 98th
+        # percentile would be 0.03
+        assert np.median(error[on]) < 0.01 and np.percentile(error[on], 98) < 0.02
+    # the tiles differ: reading the first tile everywhere would not pass
+    assert np.abs(direct[np.all(np.floor(centres) == (1, 0), axis=1)].mean(axis=0)
+                  - direct[np.all(np.floor(centres) == (0, 0), axis=1)].mean(axis=0)).max() > 0.1
+
+
+@pytest.mark.parametrize("packed", [False, True], ids=["files", "packed"])
+def test_a_tiled_image_is_stylized_into_a_new_atlas_and_its_tiles_stay_as_they_were(addon, tmp_path, packed):
+    from cp_stylize.blender import stylize
+    from cp_stylize.blender.writing import ATLAS_UV_NAME
+
+    image = udim_image(tmp_path, packed=packed)
+    obj = sphere(material=image_material("Tiled", image), segments=48, rings=24)
+    spread_over_tiles(obj)
+    source = _colours_at_face_centres(stylize.prepare(obj, addon.to_settings()))
+    tiles = [bytes(p.packed_file.data) for p in image.packed_files]
+    before = snapshot(tmp_path)
+    addon.mode, addon.time, addon.image_size = "gaussian", 1e-5, "512"
+    for run in range(2):                 # and again: the second run reads the tiles, not the first result
+        assert bpy.ops.object.cp_stylize() == {"FINISHED"}
+        result = stylized_image(obj)
+        assert obj.data.uv_layers.get(ATLAS_UV_NAME) is not None     # the tiles' UVs span three squares
+        points, colours = texel_points(obj, result, ATLAS_UV_NAME)
+        # each tile's region of the surface keeps that tile's colours (the first tile alone would not)
+        face_centres = np.array([p.center for p in obj.data.polygons])
+        for region in (face_centres[:, 2] > 0.4, (face_centres[:, 2] < 0.2) & (face_centres[:, 0] < -0.1),
+                       (face_centres[:, 2] < 0.2) & (face_centres[:, 0] > 0.1)):
+            near_region = _nearest_face(points, face_centres, region)
+            triangles, area = _triangles_of(obj, region)
+            mean = (source[triangles] * area[triangles, None]).sum(axis=0) / area[triangles].sum()
+            assert np.abs(colours[near_region].mean(axis=0) - mean).max() < 0.03
+    after = snapshot(tmp_path)
+    assert after["files"] == before["files"]
+    assert [bytes(p.packed_file.data) for p in image.packed_files] == tiles
+    assert after["images"][image.name] == before["images"][image.name]
+    assert sorted(t.number for t in image.tiles) == [1001, 1002, 1011]
+    assert len(bpy.data.images) == before["counts"]["images"] + 1          # the result; no tile left loaded
+
+
+def _nearest_face(points, centres, region):
+    """Of ``points``, those whose nearest face centre is in ``region`` (and not at its border)."""
+    from scipy.spatial import cKDTree
+
+    distance, nearest = cKDTree(centres).query(points, k=4)
+    return region[nearest].all(axis=1)
+
+
+def _triangles_of(obj, region):
+    """Of the render triangles of ``obj``'s mesh, those of the polygons in ``region``, and every triangle's area."""
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    polygon, area = np.empty(len(mesh.loop_triangles), np.int64), np.empty(len(mesh.loop_triangles))
+    mesh.loop_triangles.foreach_get("polygon_index", polygon)
+    mesh.loop_triangles.foreach_get("area", area)
+    return region[polygon], area
+
+
 def cycles_emission(obj, size=256):
     """The colour Cycles renders on ``obj`` (an Emit bake), sRGB-encoded, at its faces' centres."""
     from cp_stylize.texture import linear_to_srgb
@@ -1318,8 +1436,9 @@ def test_an_image_sequence_is_refused_with_how_to_read_one_frame(addon, tmp_path
         "Editor's sidebar, Image tab: Source Single Image; or open one frame as an image)")
 
 
-@pytest.mark.parametrize("case", ["missing file", "tiled image"])
-def test_a_missing_image_file_and_a_tiled_image_are_refused_with_what_to_do(addon, tmp_path, monkeypatch, case):
+@pytest.mark.parametrize("case", ["missing file", "tiled image without files", "missing tile", "damaged tile",
+                                  "tiled image with unsaved changes"])
+def test_a_missing_image_file_or_tile_is_refused_with_what_to_do(addon, tmp_path, monkeypatch, case):
     if case == "missing file":
         save_blend(tmp_path)
         image = halves("wood", pack=False)
@@ -1331,13 +1450,34 @@ def test_a_missing_image_file_and_a_tiled_image_are_refused_with_what_to_do(addo
         message = (f"image {image.name!r}: its file {str(tmp_path / 'textures' / 'wood.png')!r} is missing: find it "
                    "again (File > External Data > Find Missing Files), replace it (Image > Replace), or choose "
                    "another image")
-    else:
+    elif case == "tiled image without files":
         image = bpy.data.images.new("Tiles", 64, 64, tiled=True)
         image.tiles.new(tile_number=1002)
-        message = (f"image {image.name!r} is a tiled (UDIM) image, which cp_stylize cannot read: use a single image "
-                   "for this material, or bake the tiles into one first")
-    sphere(material=image_material("Painted", image))
+        message = (f"image {image.name!r} is a tiled (UDIM) image with no files (its tiles are read from their files "
+                   "or packed data): save it (Image > Save in the Image Editor) and press Stylize again")
+    elif case == "missing tile":
+        image = udim_image(tmp_path, packed=False)
+        os.remove(tmp_path / "Tiles.1002.png")
+        message = (f"image {image.name!r}: the file {str(tmp_path / 'Tiles.1002.png')!r} of its tile 1002 is missing: "
+                   "find it again (File > External Data > Find Missing Files), or choose another image")
+    elif case == "damaged tile":
+        image = udim_image(tmp_path, packed=False)
+        (tmp_path / "Tiles.1011.png").write_bytes(b"not a PNG")
+        message = (f"image {image.name!r}: its tile 1011 could not be read (it is damaged, or not an image Blender "
+                   "can open): replace it, or choose another image")
+    else:
+        image = udim_image(tmp_path, packed=True)
+        image.pixels[0] = 0.5           # painted since it was packed
+        assert image.is_dirty
+        message = (f"image {image.name!r} is a tiled (UDIM) image with changes that are not saved (its tiles are read "
+                   "from their files or packed data): save it (Image > Save in the Image Editor) and press Stylize "
+                   "again")
+    obj = sphere(material=image_material("Painted", image))
+    if case == "damaged tile":
+        spread_over_tiles(obj)          # a tile no face reads is not read
+    images = len(bpy.data.images)
     assert _refused_before_the_band_is_built(monkeypatch) == message
+    assert len(bpy.data.images) == images          # no tile left loaded
 
 
 def test_a_material_without_a_material_output_is_refused_with_how_to_add_one(addon, monkeypatch):
