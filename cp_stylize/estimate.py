@@ -15,6 +15,7 @@ import dataclasses
 import numpy as np
 
 from .atlas import XATLAS_FACES
+from .band_search import use_aabb
 from .grid import estimate_band_size
 from .parameters import CURVATURE_DIRECTIONS
 from .pipeline import KEEP_BAKE_TEXELS, normalisation, stencil_for
@@ -30,8 +31,15 @@ SECONDS_SETUP_PER_POINT = {"gaussian": 2.7e-6, "other": 3.6e-6}
 SECONDS_STEP_PER_POINT = 1.8e-8
 #: ... per band point for one rebuild of the diffusion tensor (about every other step) ...
 SECONDS_TENSOR_PER_POINT = 1.35e-7
-#: ... per triangle for the closest point search (it meets every triangle near each block) ...
-SECONDS_PER_TRIANGLE = 2e-5
+#: ... per triangle for the mesh's set-up and the closest point search (it meets every triangle near each
+#: block) ...
+SECONDS_PER_TRIANGLE = 2.8e-5
+#: ... or, where the band is found through libigl's AABB tree (:func:`cp_stylize.band_search.use_aabb`), per
+#: triangle for the set-up and the tree, and per band point for the tree's queries (about one and a half a
+#: point; a million-triangle Suzanne's 780,000 points 8.7 s in all, a 500,000-triangle sphere's 1.9 million
+#: points 10.6 s, on two cores) ...
+SECONDS_PER_TRIANGLE_TREE = 1.8e-5
+SECONDS_TREE_PER_POINT = 5e-6
 #: ... per triangle of a new atlas, where the mesh has no usable UVs: an xatlas unwrap (up to
 #: ``atlas.XATLAS_FACES`` triangles), or charts projected along the axes (beyond) ...
 SECONDS_UNWRAP_PER_TRIANGLE = {"xatlas": 1.6e-4, "charts": 3e-6}
@@ -43,13 +51,14 @@ SECONDS_PER_IMAGE_PIXEL = 1e-7
 SECONDS_PER_RUN = 0.9
 
 #: Brush strokes: seconds per baked texel and layer of strokes, per band point and layer for their
-#: stroke fields, and the share of an atlas's texels that are baked (islands and margin); bytes per texel
-#: of the atlas (the painted texels' colours, heights and places; the dabs are drawn in blocks of bounded
-#: size, :data:`cp_stylize.canvas._PAIRS`): Sunflower Vase on the photo sphere, whose UV map fills its
-#: atlas, at 4096 x 4096 peaked at 8.54 GiB, 7.42 GiB without its strokes.
-SECONDS_STROKES_PER_TEXEL = 2.5e-6
-SECONDS_STROKE_FIELD_PER_POINT = 1.5e-6
-BYTES_STROKES_PER_TEXEL = 72
+#: stroke fields (with the stars, contours and thin lines found on the band), and the share of an atlas's
+#: texels that are baked (islands and margin); bytes per texel of the atlas (the painted texels' colours,
+#: heights and places; the dabs are drawn in blocks of bounded size, :data:`cp_stylize.canvas._PAIRS`).
+#: Fitted on 2026-12-08 to Starry Night on Suzanne (docs/performance.md, ``tools/estimate_cases.py``): at
+#: 1024 x 1024 8.7 s of painting and 21 s of strokes at the bake-out, at 4096 x 4096 329 s and 7.11 GiB.
+SECONDS_STROKES_PER_TEXEL = 9.5e-6
+SECONDS_STROKE_FIELD_PER_POINT = 5.5e-6
+BYTES_STROKES_PER_TEXEL = 220
 #: Sheen (the relief lit into the colour): seconds per baked texel (a 2048 x 2048 atlas whole: 3 s on two
 #: busy cores), and bytes per texel of the atlas (its texels' places in it).
 SECONDS_SHEEN_PER_TEXEL = 8e-7
@@ -81,8 +90,10 @@ BYTES_EDGES_PER_POINT = 250
 
 #: Peak memory of a colour run, in bytes a band point (matrices: E with 64 weights, the
 #: 19-point stencil, L, gradients, smoothing passes; geometry, tensor fields, work arrays) ...
-BYTES_PER_BAND_POINT = 1650
-#: ... a triangle (the closest point search's candidate pairs), a texel of the atlas ...
+BYTES_PER_BAND_POINT = 1400
+#: ... a triangle (the closest point search's candidate pairs, or libigl's AABB tree and its copy of the
+#: triangles, on the meshes that take it: a million-triangle scan and a 500,000-triangle sphere peaked within
+#: 3 % of the estimate), a texel of the atlas ...
 BYTES_PER_TRIANGLE = 500
 BYTES_PER_TEXEL = 128
 #: ... an atlas texel, for the bake-out interpolation a run with a cache keeps (64 weights and
@@ -111,8 +122,13 @@ def estimate_run(n_points, settings, channels=3, triangles=0, keep=False, unwrap
     per_point += steps * channels * SECONDS_STEP_PER_POINT
     if settings.mode != "gaussian":
         per_point += (1 + steps // 2) * SECONDS_TENSOR_PER_POINT
+    if use_aabb(triangles, n_points):
+        per_point += SECONDS_TREE_PER_POINT
+        per_triangle = SECONDS_PER_TRIANGLE_TREE
+    else:
+        per_triangle = SECONDS_PER_TRIANGLE
     texels = settings.image_size ** 2
-    seconds = SECONDS_PER_RUN + n_points * per_point + triangles * SECONDS_PER_TRIANGLE + texels * SECONDS_PER_TEXEL
+    seconds = SECONDS_PER_RUN + n_points * per_point + triangles * per_triangle + texels * SECONDS_PER_TEXEL
     seconds += image_pixels * SECONDS_PER_IMAGE_PIXEL
     if unwrap:
         seconds += triangles * SECONDS_UNWRAP_PER_TRIANGLE["xatlas" if triangles <= XATLAS_FACES else "charts"]

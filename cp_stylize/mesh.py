@@ -353,14 +353,24 @@ class TriangleMesh:
         ``ijk``, shape (K, 3)): over all chunks, every grid point within
         ``width`` exactly once, with its closest point as
         :meth:`closest_point_on_faces` gives it.  The chunks come from
-        :meth:`cp_stylize.nearest.TriangleSearch.band`.
+        :meth:`cp_stylize.nearest.TriangleSearch.band`, or on meshes with many
+        triangles a band point, where libigl can be imported, from its AABB
+        tree (:func:`cp_stylize.band_search.use_aabb`,
+        :func:`cp_stylize.band_search.aabb_band_points`): the same points,
+        and the same closest points up to ties.
         """
+        from .band_search import aabb_band_points, use_aabb
+
         h, width = float(h), float(width)
         if not np.isfinite(h) or h <= 0:
             raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
         if not np.isfinite(width) or width < 0:
             raise ValueError(f"width must be a non-negative number, got {width!r}")
-        for ijk, kept, v, w, d2 in self._search.band(h, width):
+        if use_aabb(len(self.faces), 2.0 * width * self.area / h**3):
+            chunks = aabb_band_points(self._search, self.vertices, self._turned, h, width)
+        else:
+            chunks = self._search.band(h, width)
+        for ijk, kept, v, w, d2 in chunks:
             result = self._result(kept, v, w, d2)
             inside = result[1] <= width
             yield (ijk[inside],) + tuple(a[inside] for a in result)

@@ -9,7 +9,8 @@ must come from the zip's wheels: copies elsewhere on the path (a virtual
 environment's, the system's) are hidden.  It checks that enabling the add-on imports no SciPy,
 then runs Starry Night on an image-textured sphere and a Gaussian blur on a
 procedural (checker) sphere, checks both results, filters the sphere's vertices
-with the mesh filter (libigl), and prints one line that
+with the mesh filter (libigl), finds the sphere's band through libigl's AABB
+tree as for a large mesh, and prints one line that
 starts with ``EXTENSION CHECK PASSED``.  Any failure raises.
 """
 
@@ -144,6 +145,18 @@ def main(zip_path):
     height = data.vertices[:, 2]
     blurred = mesh_diffuse(data.vertices, data.triangles, height, mode="gaussian", T=0.05)
     assert np.ptp(blurred) < 0.99 * np.ptp(height), "the mesh filter did not smooth"
+    # the band of a large mesh, found through libigl's AABB tree: the same grid points as the blocks' search
+    core = importlib.import_module(ADDON + ".cp_stylize")
+    band_search = importlib.import_module(ADDON + ".cp_stylize.band_search")
+    mesh = core.TriangleMesh(data.vertices, data.triangles)
+    chosen, bands = band_search.use_aabb, []
+    try:
+        for tree in (False, True):          # the blocks' search, then the tree's
+            band_search.use_aabb = lambda triangles, points, tree=tree: tree
+            bands.append(set(map(tuple, core.Band.build(mesh, 0.05).ijk.tolist())))
+    finally:
+        band_search.use_aabb = chosen
+    assert bands[0] == bands[1], "the AABB tree's band differs from the blocks'"
     for module in (scipy, xatlas, igl):
         assert os.path.realpath(module.__file__).startswith(user_extensions()), module.__file__
     print(f"EXTENSION CHECK PASSED blender={bpy.app.version_string} python={sys.version.split()[0]} "

@@ -5,7 +5,7 @@ import pytest
 
 from cp_stylize import Torus
 from cp_stylize.mesh import TriangleMesh, parametric_mesh
-from cp_stylize.estimate import estimate_run
+from cp_stylize.estimate import BYTES_STROKES_PER_TEXEL, estimate_run
 from cp_stylize.pipeline import ColourInput, stylize
 from cp_stylize.presets import StylizeSettings, load_preset
 from test_mesh import renumbered
@@ -92,7 +92,8 @@ def test_estimate_grows_with_the_grid_and_the_filter():
     assert s1 < painted < larger
     assert painted_bytes > b1                                                 # and hold the painted texels
     unlit = ced.replace(image_size=2048, sheen=0.0)
-    assert estimate_run(100_000, unlit.replace(strokes=1.0))[1] - estimate_run(100_000, unlit)[1] == 72 * 2048**2
+    assert estimate_run(100_000, unlit.replace(strokes=1.0))[1] - estimate_run(100_000, unlit)[1] == \
+        BYTES_STROKES_PER_TEXEL * 2048**2
     # their sheen by the texel too, and nothing without strokes
     lit, flat = (estimate_run(100_000, ced.replace(strokes=1.0, image_size=2048, sheen=sheen)) for sheen in (0.8, 0.0))
     assert lit[0] > flat[0] + 1.0 and lit[1] == flat[1] + 4 * 2048**2
@@ -285,3 +286,17 @@ def test_the_input_colours_hull_takes_every_colour_a_run_paints_in_its_channels(
         if channels == 4:
             rows = np.all(np.isclose(found[:, :3], palette[0]), axis=1)
             assert np.all(found[rows, 3] == 0.0)
+
+
+def test_the_estimate_counts_the_aabb_trees_search_where_the_band_takes_it(monkeypatch):
+    from cp_stylize import estimate as est
+
+    settings = load_preset("denoise_eed")
+    costs = {}
+    for tree in (False, True):
+        monkeypatch.setattr(est, "use_aabb", lambda triangles, points, tree=tree: tree)
+        costs[tree] = estimate_run(780_000, settings, triangles=1_000_000)[0]
+    # the tree costs by the band point, the blocks by the triangle: a million triangles round a scan's band
+    assert costs[False] - costs[True] == pytest.approx(
+        1_000_000 * (est.SECONDS_PER_TRIANGLE - est.SECONDS_PER_TRIANGLE_TREE) - 780_000 * est.SECONDS_TREE_PER_POINT)
+    assert costs[True] < costs[False]
