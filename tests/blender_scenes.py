@@ -1,5 +1,7 @@
 """Scene building blocks of the Blender tests: images, materials and objects."""
 
+import os
+
 import bpy
 import numpy as np
 
@@ -78,3 +80,53 @@ def sphere(name="Ball", material=None, *, segments=32, rings=16, location=(0.0, 
     if material is not None:
         obj.data.materials.append(material)
     return obj
+
+
+def smooth_colours(size):
+    """Smooth, colourful pixels (size, size, 3): no edge a bake's resolution would blur."""
+    v, u = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size, indexing="ij")
+    return np.stack([0.5 + 0.4 * np.sin(2 * np.pi * u), 0.5 + 0.4 * np.cos(2 * np.pi * v), 0.3 + 0.3 * u * v],
+                    axis=-1)
+
+
+def smooth_image(name, *, size=64, **options):
+    """A smooth, colourful image (:func:`smooth_colours`)."""
+    return new_image(name, smooth_colours(size), **options)
+
+
+def udim_image(folder, *, packed):
+    """A tiled (UDIM) image of three tiles of different sizes and colours (1001, 1002 and 1011), from files in
+    ``folder`` (``Tiles.<UDIM>.png``), packed or not."""
+    folder = str(folder)
+    for number, size, order in ((1001, 64, [0, 1, 2]), (1002, 32, [2, 0, 1]), (1011, 48, [1, 2, 0])):
+        image = new_image(f"tile {number}", smooth_colours(size)[..., order], pack=False)
+        image.filepath_raw, image.file_format = os.path.join(folder, f"Tiles.{number}.png"), "PNG"
+        image.save()
+        bpy.data.images.remove(image)
+    image = bpy.data.images.load(os.path.join(folder, "Tiles.1001.png"))
+    image.source = "TILED"          # Blender finds the other tiles beside the first
+    assert sorted(t.number for t in image.tiles) == [1001, 1002, 1011]
+    if packed:
+        image.pack()
+        for number in (1001, 1002, 1011):
+            os.remove(os.path.join(folder, f"Tiles.{number}.png"))
+    return image
+
+
+def spread_over_tiles(obj, off_tiles=False):
+    """Move the faces of ``obj``'s UV map onto the tiles 1001, 1002 and 1011 by where they are (and with
+    ``off_tiles``, those at the bottom onto the square of 1005, which the image does not have)."""
+    mesh = obj.data
+    layer = mesh.uv_layers[0]
+    uv = np.empty(2 * len(mesh.loops))
+    layer.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    for poly in mesh.polygons:
+        loops = list(poly.loop_indices)
+        if off_tiles and poly.center.z < -0.6:
+            uv[loops] += (4.0, 0.0)                                         # no tile
+        elif poly.center.z > 0.3:
+            uv[loops] += (0.0, 1.0)                                         # tile 1011
+        elif poly.center.x < 0:
+            uv[loops] += (1.0, 0.0)                                         # tile 1002
+    layer.data.foreach_set("uv", uv.ravel())

@@ -17,8 +17,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="needs Blender's Python module (pip install -r requirements.txt)")
 
-from blender_scenes import (BLUE, GREEN, RED, halves, image_material, new_image, node_material,  # noqa: E402
-                            procedural_material, sphere, surface_from)
+from blender_scenes import (BLUE, GREEN, RED, halves, image_material, node_material,  # noqa: E402
+                            procedural_material, smooth_image, sphere, spread_over_tiles, surface_from, udim_image)
 from blender_state import assert_unchanged, files, pixel_hash, snapshot  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -562,13 +562,6 @@ def test_a_clipped_image_is_black_outside_its_unit_square(addon):
     assert near(left, GREEN).mean() > 0.9 and (right.max(axis=1) < 0.05).mean() > 0.9
 
 
-def smooth_image(name, *, size=64, **options):
-    """A smooth, colourful image (no edge a bake's resolution would blur)."""
-    v, u = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size, indexing="ij")
-    rgb = np.stack([0.5 + 0.4 * np.sin(2 * np.pi * u), 0.5 + 0.4 * np.cos(2 * np.pi * v), 0.3 + 0.3 * u * v], axis=-1)
-    return new_image(name, rgb, **options)
-
-
 def _configure(material, case):
     """Set up the image's coordinates, extension or colour space for a renderer-equivalence case."""
     tree = material.node_tree
@@ -663,46 +656,6 @@ def test_images_are_read_as_cycles_renders_them(addon, case):
         error = error[np.all((np.abs(t) > 0.01) & (np.abs(t - 1) > 0.01), axis=1)]
     print(f"\n{case}: median {np.median(error):.4f}, 98th percentile {np.percentile(error, 98):.4f}")
     assert np.median(error) < 0.01 and np.percentile(error, 98) < 0.04
-
-
-def udim_image(folder, *, packed):
-    """A tiled (UDIM) image of three tiles of different sizes and colours (1001, 1002 and 1011), from files in
-    ``folder`` (``Tiles.<UDIM>.png``), packed or not."""
-    for number, size, order in ((1001, 64, [0, 1, 2]), (1002, 32, [2, 0, 1]), (1011, 48, [1, 2, 0])):
-        image = smooth_image(f"tile {number}", size=size, pack=False)
-        rgba = pixels(image)[..., order]
-        image.pixels.foreach_set(np.concatenate([rgba, np.ones(rgba.shape[:2] + (1,))], axis=-1).astype(
-            np.float32).ravel())
-        image.filepath_raw, image.file_format = str(folder / f"Tiles.{number}.png"), "PNG"
-        image.save()
-        bpy.data.images.remove(image)
-    image = bpy.data.images.load(str(folder / "Tiles.1001.png"))
-    image.source = "TILED"          # Blender finds the other tiles beside the first
-    assert sorted(t.number for t in image.tiles) == [1001, 1002, 1011]
-    if packed:
-        image.pack()
-        for number in (1001, 1002, 1011):
-            os.remove(folder / f"Tiles.{number}.png")
-    return image
-
-
-def spread_over_tiles(obj, off_tiles=False):
-    """Move the faces of ``obj``'s UV map onto the tiles 1001, 1002 and 1011 by where they are (and with
-    ``off_tiles``, those at the bottom onto the square of 1005, which the image does not have)."""
-    mesh = obj.data
-    layer = mesh.uv_layers[0]
-    uv = np.empty(2 * len(mesh.loops))
-    layer.data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)
-    for poly in mesh.polygons:
-        loops = list(poly.loop_indices)
-        if off_tiles and poly.center.z < -0.6:
-            uv[loops] += (4.0, 0.0)                                         # no tile
-        elif poly.center.z > 0.3:
-            uv[loops] += (0.0, 1.0)                                         # tile 1011
-        elif poly.center.x < 0:
-            uv[loops] += (1.0, 0.0)                                         # tile 1002
-    layer.data.foreach_set("uv", uv.ravel())
 
 
 @pytest.mark.parametrize("packed", [False, True], ids=["files", "packed"])

@@ -24,7 +24,7 @@ import bpy
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))   # tests/: blender_state, blender_scenes
 
-from blender_scenes import halves, image_material, sphere  # noqa: E402
+from blender_scenes import halves, image_material, sphere, spread_over_tiles, udim_image  # noqa: E402
 from cp_stylize_dev.scene import attribute_material  # noqa: E402
 from blender_state import differences, snapshot  # noqa: E402
 
@@ -364,6 +364,33 @@ def scenario_rerun():
     in_view3d(bpy.ops.cp_stylize.release)
     facts["kept_after_free"] = addon.kept_bytes()
     facts["reports"] = reports()
+
+
+def scenario_udim():
+    """A UDIM asset: the sphere wearing a tiled image of three tiles (its files saved beside the screenshots),
+    its faces spread over them, stylized to the end; then undo and redo, and the result in Material Preview."""
+    obj = bpy.context.active_object
+    folder = os.path.join(OUT, "tiles")
+    os.makedirs(folder, exist_ok=True)
+    image = udim_image(folder, packed=False)
+    obj.material_slots[0].material = image_material("Tiled", image)
+    spread_over_tiles(obj)
+    settings = bpy.context.scene.cp_stylize
+    settings.mode, settings.time = "eed", 2e-4
+    in_view3d(bpy.ops.view3d.toggle_shading, type="MATERIAL")
+    in_view3d(bpy.ops.ed.undo_push, message="tiled asset ready")
+    yield 3.0
+    screenshot("udim_before")
+    facts["tiles"] = sorted(t.number for t in image.tiles)
+    before = snapshot()
+    files = sorted(os.listdir(folder))
+    yield from stylize_and_watch()
+    done = snapshot()
+    facts["changed_by_run"] = differences(before, done)
+    facts["tile_files_unchanged"] = sorted(os.listdir(folder)) == files
+    yield 3.0
+    screenshot("udim_after")
+    yield from undo_and_redo(before, done)
 
 
 def scenario_escape():

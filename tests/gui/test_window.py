@@ -152,6 +152,17 @@ def test_a_second_run_reuses_the_band_and_the_panel_can_free_it(screenshots, ext
     assert facts["kept_mib"] * 2**20 > points * 64 * 8 and facts["kept_after_free"] == 0
 
 
+def test_a_udim_asset_is_read_from_every_tile_in_a_window_and_undo_restores_it(screenshots, extension_zip, tmp_path):
+    facts = drive("udim", screenshots, extension_zip, tmp_path)
+    assert facts["tiles"] == [1001, 1002, 1011] and facts["tile_files_unchanged"]
+    changed = facts["changed_by_run"]
+    assert "images.Ball_stylized: added" in changed and "materials.Tiled_stylized: added" in changed, changed
+    assert not any(c.startswith("images.Tiles") for c in changed), changed        # the tiled image untouched
+    assert facts["after_undo"] == [] and facts["after_redo"] == []
+    assert messages(facts)[-1].startswith("stylized 'Ball' into 'Ball_stylized' in ")
+    assert os.path.getsize(facts["screenshots"]["udim_after"]) > 10_000
+
+
 def test_esc_mid_run_changes_nothing(screenshots, extension_zip, tmp_path):
     facts = drive("escape", screenshots, extension_zip, tmp_path)
     assert facts["acted"] and max(facts["progress"]) < 0.95
