@@ -378,9 +378,10 @@ def scenario_udim():
     settings = bpy.context.scene.cp_stylize
     settings.mode, settings.time = "eed", 2e-4
     in_view3d(bpy.ops.view3d.toggle_shading, type="MATERIAL")
+    in_view3d(bpy.ops.view3d.view_selected)            # the asset filling the view
     in_view3d(bpy.ops.ed.undo_push, message="tiled asset ready")
-    yield 3.0
-    screenshot("udim_before")
+    yield 10.0                                          # EEVEE compiles the material's shaders first
+    screenshot("udim_before", view3d()[2])
     facts["tiles"] = sorted(t.number for t in image.tiles)
     before = snapshot()
     files = sorted(os.listdir(folder))
@@ -388,8 +389,8 @@ def scenario_udim():
     done = snapshot()
     facts["changed_by_run"] = differences(before, done)
     facts["tile_files_unchanged"] = sorted(os.listdir(folder)) == files
-    yield 3.0
-    screenshot("udim_after")
+    yield 10.0
+    screenshot("udim_after", view3d()[2])
     yield from undo_and_redo(before, done)
 
 
