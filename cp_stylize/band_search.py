@@ -170,22 +170,9 @@ AABB_FACES = 50_000
 def use_aabb(triangles, band_points):
     """Whether a band of about ``band_points`` points around ``triangles`` triangles is found through libigl's
     AABB tree (:func:`aabb_band_points`) rather than the blocks' search (:func:`band_points`)."""
-    return triangles >= max(AABB_FACES, AABB_TRIANGLES_PER_POINT * band_points) and has_igl()
+    from .mesh_diffusion import available
 
-
-_IGL = []
-
-
-def has_igl():
-    """Whether libigl can be imported here (tried once a process)."""
-    if not _IGL:
-        try:
-            import igl  # noqa: F401
-        except ImportError:
-            _IGL.append(False)
-        else:
-            _IGL.append(True)
-    return _IGL[0]
+    return triangles >= max(AABB_FACES, AABB_TRIANGLES_PER_POINT * band_points) and available()
 
 
 def aabb_band_points(search, vertices, faces, h, width):

@@ -23,8 +23,8 @@ import itertools
 
 import numpy as np
 
-__all__ = ["STENCILS", "DEGREE", "band_width", "estimate_band_size", "stencil_offsets", "lagrange_weights", "flat_index",
-           "candidates"]
+__all__ = ["STENCILS", "DEGREE", "band_width", "estimate_band_size", "tube_points", "stencil_offsets",
+           "lagrange_weights", "flat_index", "candidates"]
 
 _AXES = np.eye(3, dtype=np.int64)
 
@@ -76,7 +76,13 @@ def estimate_band_size(area, h, *, stencil="laplacian", degree=DEGREE, safety=1.
         raise ValueError(f"area must be a non-negative number, got {area!r}")
     if not np.isfinite(h) or h <= 0:
         raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
-    return int(round(2.0 * band_width(h, degree, stencil) * safety * area / h**3))
+    return int(round(tube_points(area, h, band_width(h, degree, stencil) * safety)))
+
+
+def tube_points(area, h, width):
+    """Grid points of spacing ``h`` within ``width`` of a surface of the given area, about: the leading term of
+    Weyl's tube formula (:func:`estimate_band_size`), ``2 width area / h^3``."""
+    return 2.0 * width * area / h**3
 
 
 def stencil_offsets(stencil):

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arrays import as_points, before, count, unit_rows
+from .grid import tube_points
 from .nearest import TriangleSearch
 
 __all__ = ["TriangleMesh", "parametric_mesh", "surface_faces", "canonical_faces", "check_mesh"]
@@ -366,7 +367,7 @@ class TriangleMesh:
             raise ValueError(f"grid spacing h must be a positive number, got {h!r}")
         if not np.isfinite(width) or width < 0:
             raise ValueError(f"width must be a non-negative number, got {width!r}")
-        if use_aabb(len(self.faces), 2.0 * width * self.area / h**3):
+        if use_aabb(len(self.faces), tube_points(self.area, h, width)):
             chunks = aabb_band_points(self._search, self.vertices, self._turned, h, width)
         else:
             chunks = self._search.band(h, width)

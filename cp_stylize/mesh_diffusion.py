@@ -82,7 +82,8 @@ def step_count(T, tau):
 
 
 def available():
-    """Whether the mesh filters can run here (libigl can be imported)."""
+    """Whether libigl can be imported here: the mesh filters need it, and so does the band's AABB tree
+    (:func:`cp_stylize.band_search.use_aabb`)."""
     try:
         _igl()
     except ImportError:

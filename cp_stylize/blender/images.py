@@ -87,7 +87,7 @@ def read_tiles(image, read, numbers=None):
     temporary file (:func:`check_readable` first), one at a time.
     """
     packed = {p.tile_number: p for p in image.packed_files}
-    read_ = []
+    found = []
     with tempfile.TemporaryDirectory(prefix="cp_stylize_tiles_") as folder:
         for tile in image.tiles:
             if numbers is not None and tile.number not in numbers:
@@ -104,10 +104,10 @@ def read_tiles(image, read, numbers=None):
                     raise StylizeError(f"image {image.name!r}: its tile {tile.number} could not be read (it is "
                                        "damaged, or not an image Blender can open): replace it, or choose another "
                                        "image")
-                read_.append((tile.number, read(one)))
+                found.append((tile.number, read(one)))
             finally:
                 bpy.data.images.remove(one)
-    return read_
+    return found
 
 
 def check_readable(image):
